@@ -1,0 +1,340 @@
+//! Where every sample of a semi-regular mesh lives.
+//!
+//! Each base face carries an `(n + 1) x (n + 1)` grid, `n = 2^level`, with
+//! face-local coordinates `(i, j)`: corner 0 at `(0, 0)`, corner 1 at `(n, 0)`,
+//! corner 2 at `(n, n)`, corner 3 at `(0, n)`. Samples on base vertices and base
+//! edges are shared by the faces that meet there and stored once:
+//!
+//! | ids | what |
+//! |---|---|
+//! | `0 .. V` | base vertices |
+//! | `V .. V + E (n - 1)` | edge interiors, `n - 1` per edge, from `ends[0]` |
+//! | the rest | face interiors, `(n - 1)^2` per face, row-major |
+
+use crate::base::BaseMesh;
+use crate::{Error, Result};
+
+/// Highest subdivision level supported (a 4097 x 4097 grid per base face).
+pub const MAX_LEVEL: u32 = 12;
+
+/// Most samples a layout may hold (keeps ids in `u32` and memory bounded).
+pub const MAX_SAMPLES: u64 = 1 << 28;
+
+/// The sample layout of a base mesh refined `level` times.
+#[derive(Clone, Debug)]
+pub struct Layout {
+    base: BaseMesh,
+    level: u32,
+    /// `grid[f * (n+1)^2 + j * (n+1) + i]` = sample id.
+    grid: Vec<u32>,
+    sample_count: u32,
+}
+
+/// Point at parameter `t` along side `k` (from corner `k`) and depth `d` into
+/// the face, in face-local coordinates of an `n`-grid.
+pub const fn side_point(n: i32, k: u8, t: i32, d: i32) -> (i32, i32) {
+    match k & 3 {
+        0 => (t, d),
+        1 => (n - d, t),
+        2 => (n - t, n - d),
+        _ => (d, n - t),
+    }
+}
+
+/// Inverse of [`side_point`]: parameter and depth of `(i, j)` relative to side `k`.
+pub const fn side_coords(n: i32, k: u8, i: i32, j: i32) -> (i32, i32) {
+    match k & 3 {
+        0 => (i, j),
+        1 => (j, n - i),
+        2 => (n - i, n - j),
+        _ => (n - j, i),
+    }
+}
+
+impl Layout {
+    /// Lays out the samples of `base` refined `level` times.
+    pub fn new(base: BaseMesh, level: u32) -> Result<Self> {
+        if level > MAX_LEVEL {
+            return Err(Error::LevelTooHigh {
+                level,
+                max: MAX_LEVEL,
+            });
+        }
+        let n = 1u64 << level;
+        let v = base.vertex_count() as u64;
+        let e = base.edges().len() as u64;
+        let f = base.faces().len() as u64;
+        let samples = v + e * (n - 1) + f * (n - 1) * (n - 1);
+        let grid_len = f * (n + 1) * (n + 1);
+        if samples > MAX_SAMPLES || grid_len > 2 * MAX_SAMPLES {
+            return Err(Error::TooManySamples {
+                samples,
+                max: MAX_SAMPLES,
+            });
+        }
+        let n = n as usize;
+        let side = n + 1;
+        let edge_base = v as usize;
+        let face_base = edge_base + e as usize * (n - 1);
+        let mut grid = vec![0u32; grid_len as usize];
+        for (fi, corners) in base.faces().iter().enumerate() {
+            let g = &mut grid[fi * side * side..(fi + 1) * side * side];
+            for j in 1..n {
+                for i in 1..n {
+                    g[j * side + i] =
+                        (face_base + fi * (n - 1) * (n - 1) + (j - 1) * (n - 1) + i - 1) as u32;
+                }
+            }
+            for k in 0..4u8 {
+                let (ci, cj) = side_point(n as i32, k, 0, 0);
+                g[cj as usize * side + ci as usize] = corners[k as usize];
+                let forward = base.owns(fi as u32, k);
+                let edge = base.face_edges()[fi][k as usize] as usize;
+                for t in 1..n {
+                    let along = if forward { t } else { n - t };
+                    let (i, j) = side_point(n as i32, k, t as i32, 0);
+                    g[j as usize * side + i as usize] =
+                        (edge_base + edge * (n - 1) + along - 1) as u32;
+                }
+            }
+        }
+        Ok(Layout {
+            base,
+            level,
+            grid,
+            sample_count: samples as u32,
+        })
+    }
+
+    /// The base mesh.
+    pub fn base(&self) -> &BaseMesh {
+        &self.base
+    }
+
+    /// The number of refinement levels.
+    pub fn level(&self) -> u32 {
+        self.level
+    }
+
+    /// Grid size per face side, `2^level`.
+    pub fn n(&self) -> usize {
+        1 << self.level
+    }
+
+    /// Number of samples (distinct vertices of the finest mesh).
+    pub fn sample_count(&self) -> usize {
+        self.sample_count as usize
+    }
+
+    /// Number of base faces.
+    pub fn face_count(&self) -> usize {
+        self.base.faces().len()
+    }
+
+    /// The grid of face `f`: `(n + 1)^2` sample ids, row-major.
+    pub fn face_grid(&self, f: usize) -> &[u32] {
+        let side = self.n() + 1;
+        &self.grid[f * side * side..(f + 1) * side * side]
+    }
+
+    /// Sample id at `(i, j)` of face `f`.
+    #[inline]
+    pub fn sample(&self, f: usize, i: usize, j: usize) -> u32 {
+        let side = self.n() + 1;
+        self.grid[(f * side + j) * side + i]
+    }
+
+    /// Sample id of a point that may lie just outside face `f`, across one of
+    /// its sides (at most one coordinate out of `0..=n`). `None` when there is
+    /// no face there (a boundary) or when the point lies on the extension of a
+    /// side beyond an irregular corner, where "straight on" has no meaning.
+    pub fn sample_beyond(&self, f: usize, i: i32, j: i32) -> Option<u32> {
+        let n = self.n() as i32;
+        let inside = |x: i32| (0..=n).contains(&x);
+        if inside(i) && inside(j) {
+            return Some(self.sample(f, i as usize, j as usize));
+        }
+        let k: u8 = if j < 0 && inside(i) {
+            0
+        } else if i > n && inside(j) {
+            1
+        } else if j > n && inside(i) {
+            2
+        } else if i < 0 && inside(j) {
+            3
+        } else {
+            return None;
+        };
+        let (t, d) = side_coords(n, k, i, j);
+        // On a corner line: only straight on through a regular vertex.
+        if t == 0 || t == n {
+            let corner = if t == 0 { k } else { (k + 1) & 3 };
+            if !self.base.is_regular(self.base.faces()[f][corner as usize]) {
+                return None;
+            }
+        }
+        let other = self.base.across(f as u32, k);
+        if !other.exists() {
+            return None;
+        }
+        let (gi, gj) = side_point(n, other.side, n - t, -d);
+        if inside(gi) && inside(gj) {
+            Some(self.sample(other.face as usize, gi as usize, gj as usize))
+        } else {
+            None
+        }
+    }
+
+    /// Sample id diagonally beyond corner `c` of face `f`, at distance `d` along
+    /// both grid directions: only defined around a regular vertex.
+    pub fn sample_diagonal(&self, f: usize, c: u8, d: i32) -> Option<u32> {
+        if !self.base.is_regular(self.base.faces()[f][c as usize]) {
+            return None;
+        }
+        // Around a regular vertex the face diagonally opposite is two steps on.
+        let (g, gc) = self.base.rotate(f as u32, c)?;
+        let (h, hc) = self.base.rotate(g, gc)?;
+        let n = self.n() as i32;
+        let (i, j) = side_point(n, hc, d, d);
+        Some(self.sample(h as usize, i as usize, j as usize))
+    }
+
+    /// The quads of the mesh at refinement `level` (0 = base mesh, up to
+    /// [`Self::level`]), as sample ids, counter-clockwise.
+    pub fn quads(&self, level: u32) -> Vec<[u32; 4]> {
+        let level = level.min(self.level);
+        let s = 1usize << (self.level - level);
+        let cells = 1usize << level;
+        let mut quads = Vec::with_capacity(self.face_count() * cells * cells);
+        for f in 0..self.face_count() {
+            for b in 0..cells {
+                for a in 0..cells {
+                    let (i, j) = (a * s, b * s);
+                    quads.push([
+                        self.sample(f, i, j),
+                        self.sample(f, i + s, j),
+                        self.sample(f, i + s, j + s),
+                        self.sample(f, i, j + s),
+                    ]);
+                }
+            }
+        }
+        quads
+    }
+
+    /// The samples that exist at refinement `level`, in increasing id order
+    /// (coarser levels use a subset of the finest samples).
+    pub fn samples_at(&self, level: u32) -> Vec<u32> {
+        let level = level.min(self.level);
+        let s = 1usize << (self.level - level);
+        let n = self.n();
+        let mut used = vec![false; self.sample_count()];
+        for f in 0..self.face_count() {
+            for j in (0..=n).step_by(s) {
+                for i in (0..=n).step_by(s) {
+                    used[self.sample(f, i, j) as usize] = true;
+                }
+            }
+        }
+        (0..self.sample_count() as u32)
+            .filter(|&i| used[i as usize])
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cube() -> BaseMesh {
+        BaseMesh::new(
+            8,
+            vec![
+                [0, 3, 2, 1],
+                [4, 5, 6, 7],
+                [0, 1, 5, 4],
+                [1, 2, 6, 5],
+                [2, 3, 7, 6],
+                [3, 0, 4, 7],
+            ],
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn side_coords_invert_side_point() {
+        for k in 0..4 {
+            for (t, d) in [(0, 0), (3, 1), (8, 5), (2, -2)] {
+                let (i, j) = side_point(8, k, t, d);
+                assert_eq!(side_coords(8, k, i, j), (t, d));
+            }
+        }
+    }
+
+    #[test]
+    fn every_sample_is_used_and_counts_match() {
+        let layout = Layout::new(cube(), 3).unwrap();
+        assert_eq!(layout.sample_count(), 6 * 64 + 2);
+        let mut seen = vec![0u32; layout.sample_count()];
+        for f in 0..6 {
+            for &s in layout.face_grid(f) {
+                seen[s as usize] += 1;
+            }
+        }
+        assert!(seen.iter().all(|&c| c > 0));
+        // Corners of a cube are shared by three faces, edge samples by two.
+        assert_eq!(seen.iter().filter(|&&c| c == 3).count(), 8);
+        assert_eq!(seen.iter().filter(|&&c| c == 2).count(), 12 * 7);
+        assert_eq!(layout.quads(3).len(), 6 * 64);
+        assert_eq!(layout.samples_at(0).len(), 8);
+        assert_eq!(layout.samples_at(1).len(), 26);
+    }
+
+    #[test]
+    fn shared_edges_agree_and_beyond_lookups_land_next_door() {
+        let layout = Layout::new(cube(), 2).unwrap();
+        let n = 4;
+        for f in 0..6 {
+            for k in 0..4u8 {
+                let other = layout.base().across(f as u32, k);
+                for t in 0..=n {
+                    let (i, j) = side_point(n, k, t, 0);
+                    let (gi, gj) = side_point(n, other.side, n - t, 0);
+                    assert_eq!(
+                        layout.sample(f, i as usize, j as usize),
+                        layout.sample(other.face as usize, gi as usize, gj as usize)
+                    );
+                }
+                // One step outside, mid-side: the neighbour's first interior row.
+                let (i, j) = side_point(n, k, 2, -1);
+                let (gi, gj) = side_point(n, other.side, 2, 1);
+                assert_eq!(
+                    layout.sample_beyond(f, i, j),
+                    Some(layout.sample(other.face as usize, gi as usize, gj as usize))
+                );
+                // Straight on past a cube corner (valence 3) is undefined.
+                let (i, j) = side_point(n, k, 0, -1);
+                assert_eq!(layout.sample_beyond(f, i, j), None);
+            }
+        }
+    }
+
+    #[test]
+    fn straight_through_a_regular_vertex() {
+        // 2x2 grid; the centre vertex 4 is regular.
+        let base = BaseMesh::new(
+            9,
+            vec![[0, 1, 4, 3], [1, 2, 5, 4], [3, 4, 7, 6], [4, 5, 8, 7]],
+        )
+        .unwrap();
+        let layout = Layout::new(base, 1).unwrap();
+        // Face 0 spans the lower-left quarter; its corner 2 is the centre.
+        // One step right of (2, 2) along row 2 is face 1's (1, 2) ...
+        assert_eq!(layout.sample_beyond(0, 3, 2), Some(layout.sample(1, 1, 2)));
+        // ... and diagonally beyond the centre lies face 3's (1, 1).
+        assert_eq!(
+            layout.sample_diagonal(0, 2, 1),
+            Some(layout.sample(3, 1, 1))
+        );
+    }
+}

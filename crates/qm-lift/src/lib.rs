@@ -1,0 +1,25 @@
+//! Semi-regular quad meshes and their integer lifting wavelet transform.
+//!
+//! This is the bottom layer of qm. A [`BaseMesh`] is a coarse quad mesh of any
+//! topology; a [`Layout`] refines each of its faces to a regular
+//! `(2^L + 1)^2` grid with the samples on base edges and vertices shared; a
+//! [`SemiRegularMesh`] gives every sample a position. [`Quantizer`] maps
+//! positions to integers and [`Lifting`] transforms those integers into base
+//! scaling values and per-level details (Kobbelt's interpolatory quad
+//! stencils for prediction, a mean-preserving update), exactly invertibly.
+//!
+//! This crate knows nothing of trees, coding or files.
+
+mod base;
+mod error;
+mod layout;
+mod lifting;
+mod mesh;
+
+pub use base::{BaseMesh, Edge, NO_FACE, Side};
+pub use error::{Error, Result};
+pub use layout::{Layout, MAX_LEVEL, MAX_SAMPLES, side_coords, side_point};
+pub use lifting::{Coord, Lifting, UpdateRule};
+pub use mesh::{DEFAULT_BITS, MAX_BITS, MIN_BITS, Quantizer, SemiRegularMesh, bounding_box};
+
+pub use glam;

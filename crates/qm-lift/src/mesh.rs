@@ -1,0 +1,175 @@
+//! Semi-regular meshes and the quantization of their samples.
+
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+use crate::layout::Layout;
+use crate::{Error, Result};
+
+/// Fewest quantization bits per coordinate.
+pub const MIN_BITS: u32 = 4;
+/// Most quantization bits per coordinate (lifting stays inside `i32`).
+pub const MAX_BITS: u32 = 24;
+/// Default quantization bits per coordinate.
+pub const DEFAULT_BITS: u32 = 16;
+
+/// A base quad mesh whose faces are refined to regular `(2^L + 1)^2` grids,
+/// with one position per sample (see [`Layout`] for where each sample lives).
+#[derive(Clone, Debug)]
+pub struct SemiRegularMesh {
+    layout: Layout,
+    positions: Vec<DVec3>,
+}
+
+impl SemiRegularMesh {
+    /// Pairs a layout with its sample positions.
+    pub fn new(layout: Layout, positions: Vec<DVec3>) -> Result<Self> {
+        if positions.len() != layout.sample_count() {
+            return Err(Error::SizeMismatch {
+                what: "sample positions",
+                expected: layout.sample_count(),
+                found: positions.len(),
+            });
+        }
+        if positions.iter().any(|p| !p.is_finite()) {
+            return Err(Error::NonFinite);
+        }
+        Ok(SemiRegularMesh { layout, positions })
+    }
+
+    /// Builds a semi-regular mesh from per-face grids of input vertex ids:
+    /// `grids[f * (n+1)^2 + j * (n+1) + i]` names the input vertex at `(i, j)`
+    /// of base face `f`. Returns the mesh and, for each sample, the input
+    /// vertex it came from.
+    pub fn from_face_grids(
+        layout: Layout,
+        grids: &[u32],
+        input: &[DVec3],
+    ) -> Result<(Self, Vec<u32>)> {
+        let side = layout.n() + 1;
+        let expected = layout.face_count() * side * side;
+        if grids.len() != expected {
+            return Err(Error::SizeMismatch {
+                what: "face grids",
+                expected,
+                found: grids.len(),
+            });
+        }
+        let mut source = vec![u32::MAX; layout.sample_count()];
+        for f in 0..layout.face_count() {
+            let ids = &grids[f * side * side..(f + 1) * side * side];
+            for (&sample, &vertex) in layout.face_grid(f).iter().zip(ids) {
+                if vertex as usize >= input.len() {
+                    return Err(Error::SizeMismatch {
+                        what: "input vertex index",
+                        expected: input.len(),
+                        found: vertex as usize,
+                    });
+                }
+                let slot = &mut source[sample as usize];
+                if *slot != u32::MAX && *slot != vertex {
+                    return Err(Error::InconsistentGrid { sample });
+                }
+                *slot = vertex;
+            }
+        }
+        let positions = source.iter().map(|&v| input[v as usize]).collect();
+        Ok((SemiRegularMesh::new(layout, positions)?, source))
+    }
+
+    /// The sample layout.
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    /// Sample positions, indexed by sample id.
+    pub fn positions(&self) -> &[DVec3] {
+        &self.positions
+    }
+
+    /// Splits into layout and positions.
+    pub fn into_parts(self) -> (Layout, Vec<DVec3>) {
+        (self.layout, self.positions)
+    }
+}
+
+/// Uniform quantization of positions onto a cube grid around their bounding
+/// box: one step for all three axes so shapes keep their proportions.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Quantizer {
+    /// Bits per coordinate.
+    pub bits: u32,
+    /// Lower corner of the bounding box.
+    pub origin: [f64; 3],
+    /// Length of one quantization step.
+    pub step: f64,
+}
+
+impl Quantizer {
+    /// The quantizer for `bits` bits over the bounding box of `points`.
+    pub fn fit(points: &[DVec3], bits: u32) -> Result<Self> {
+        if !(MIN_BITS..=MAX_BITS).contains(&bits) {
+            return Err(Error::BadBits { bits });
+        }
+        if points.iter().any(|p| !p.is_finite()) {
+            return Err(Error::NonFinite);
+        }
+        let (lo, hi) = bounding_box(points);
+        let extent = (hi - lo).max_element();
+        let levels = ((1u64 << bits) - 1) as f64;
+        let step = if extent > 0.0 { extent / levels } else { 1.0 };
+        Ok(Quantizer {
+            bits,
+            origin: lo.to_array(),
+            step,
+        })
+    }
+
+    /// Grid coordinates of `p`, each in `0 .. 2^bits`.
+    pub fn quantize(&self, p: DVec3) -> [i32; 3] {
+        let max = ((1i64 << self.bits) - 1) as f64;
+        let q = ((p - DVec3::from(self.origin)) / self.step)
+            .round()
+            .clamp(DVec3::ZERO, DVec3::splat(max));
+        [q.x as i32, q.y as i32, q.z as i32]
+    }
+
+    /// Position of grid coordinates `q` (need not be integral).
+    pub fn dequantize(&self, q: [f64; 3]) -> DVec3 {
+        DVec3::from(self.origin) + DVec3::from(q) * self.step
+    }
+
+    /// Quantizes every point.
+    pub fn quantize_all(&self, points: &[DVec3]) -> Vec<[i32; 3]> {
+        points.iter().map(|&p| self.quantize(p)).collect()
+    }
+}
+
+/// Axis-aligned bounding box `(min, max)`; zero for an empty slice.
+pub fn bounding_box(points: &[DVec3]) -> (DVec3, DVec3) {
+    if points.is_empty() {
+        return (DVec3::ZERO, DVec3::ZERO);
+    }
+    points
+        .iter()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantization_spans_the_longest_axis() {
+        let pts = [DVec3::new(-1.0, 0.0, 2.0), DVec3::new(3.0, 1.0, 2.5)];
+        let q = Quantizer::fit(&pts, 8).unwrap();
+        assert_eq!(q.quantize(pts[0]), [0, 0, 0]);
+        assert_eq!(q.quantize(pts[1])[0], 255);
+        let back = q.dequantize([255.0, 0.0, 0.0]);
+        assert!((back.x - 3.0).abs() < 1e-12);
+        assert!(Quantizer::fit(&pts, 40).is_err());
+        assert!(Quantizer::fit(&[DVec3::new(f64::NAN, 0.0, 0.0)], 8).is_err());
+    }
+}
