@@ -1,1 +1,9 @@
-//! stub
+//! The `.qm` container and mesh file input/output.
+//!
+//! Main types: [`PolyMesh`] (what mesh files hold).
+
+mod polymesh;
+
+pub use polymesh::PolyMesh;
+pub use qm_ezw;
+pub use qm_lift;
