@@ -2,6 +2,7 @@
 //!
 //! Main types: [`PolyMesh`] (what mesh files hold).
 
+pub mod mesh;
 mod polymesh;
 
 pub use polymesh::PolyMesh;

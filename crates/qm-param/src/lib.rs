@@ -1,1 +1,1 @@
-//! stub
+//! From an input mesh to a semi-regular quad mesh (in progress).
