@@ -1,0 +1,609 @@
+//! Embedded zerotree coding of vector coefficients in bit planes.
+//!
+//! **Weighting.** A level-`l` detail moves a patch of about `4^(L-l)` finest
+//! samples, so its effect on the L2 error is about `2^(L-l)` times its own.
+//! Coefficients are compared on that scale: the level-`l` coefficient's bit
+//! `b` is coded in the pass of plane `b + (L - l)`. Each pass thus spends its
+//! bits where they remove the most error, and since the shift is an integer
+//! number of bits the last pass still leaves every coefficient exact.
+//!
+//! **Passes.** Plane `P` runs from `T0 = floor(log2 max weighted |c|)` down
+//! to 0, one pass per plane (the paper's halving thresholds; its garbled T0
+//! formula becomes this). A pass has two phases:
+//! - *dominant*: the trees are scanned breadth first, coarse to fine. A node
+//!   is visited when it is a root or its parent's subtree has been opened.
+//!   For a visited node, each not yet significant coordinate gets a
+//!   significance bit (and a sign bit when it becomes significant, EZW's
+//!   POS/NEG); then, if the node's subtree is still closed, one bit says
+//!   whether any coordinate below it is significant at this plane. A 0 is
+//!   EZW's zerotree root (ZTR) and the subtree is skipped; a 1 opens it for
+//!   good (set partitioning as in SPIHT, so it is never coded again) and the
+//!   children are visited in this same pass. A node with insignificant
+//!   coordinates and an open subtree is EZW's isolated zero.
+//! - *subordinate*: one refinement bit for every coordinate that was already
+//!   significant before the pass.
+//!
+//! All three coordinates share the tree: one pass refines x, y and z.
+//!
+//! **Contexts.** Significance bits are modelled by node kind, level, the
+//! coordinate, whether the parent is significant in it, how many of the
+//! node's other coordinates are, and how many of its earlier siblings are;
+//! signs by the parent's sign; zerotree bits by kind, level and the node's
+//! own significance; refinement bits by coordinate and whether this is the
+//! first refinement.
+//!
+//! **Reconstruction.** An unresolved coefficient is put at the centre of its
+//! uncertainty interval, so more bits never make the expected error larger
+//! (the paper's rising error came from doing otherwise).
+
+use qm_tree::{NO_PARENT, ZeroTree};
+
+use crate::range::{BitReader, BitWriter, Context, Truncated};
+
+/// A coefficient: three integer coordinates.
+pub type Coef = [i32; 3];
+
+/// How coefficients are weighted across levels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Weighting {
+    /// Extra bits of weight per level coarser than the finest (1 = the L2
+    /// norm of the basis functions; 0 = all levels alike).
+    pub bits_per_level: u32,
+}
+
+impl Default for Weighting {
+    fn default() -> Self {
+        Weighting { bits_per_level: 1 }
+    }
+}
+
+impl Weighting {
+    #[inline]
+    fn shift(self, level: u32, max_level: u32) -> u32 {
+        self.bits_per_level * (max_level - level)
+    }
+}
+
+/// What the decoder must know to follow the encoder: stored in the header.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StreamParams {
+    /// Number of bit planes (passes) of a complete stream: `T0 + 1`, or 0
+    /// when every coefficient is zero.
+    pub planes: u32,
+    /// Passes actually coded (at most `planes`).
+    pub passes: u32,
+    /// Level weighting.
+    pub weighting: Weighting,
+}
+
+/// Result of encoding.
+#[derive(Clone, Debug)]
+pub struct Encoded {
+    /// The arithmetic-coded stream.
+    pub bytes: Vec<u8>,
+    /// Parameters for the decoder.
+    pub params: StreamParams,
+    /// Bytes needed to decode the first `k + 1` passes, for each pass `k`.
+    pub pass_ends: Vec<usize>,
+}
+
+/// Result of decoding a (possibly cut) stream.
+#[derive(Clone, Debug)]
+pub struct Decoded {
+    /// Reconstructed coefficients in node order.
+    pub coefs: Vec<Coef>,
+    /// Passes decoded completely.
+    pub passes: u32,
+    /// Whether the stream ended before the passes asked for were complete.
+    pub truncated: bool,
+    /// Stream bytes read.
+    pub bytes_read: usize,
+}
+
+/// Encodes node-ordered `coefs` of `tree`, at most `max_passes` passes.
+pub fn encode(
+    tree: &ZeroTree,
+    coefs: &[Coef],
+    weighting: Weighting,
+    max_passes: Option<u32>,
+) -> Encoded {
+    assert_eq!(coefs.len(), tree.len(), "one coefficient per tree node");
+    let big_l = tree.max_level();
+    let levels = tree.levels();
+    let weighted_top = |k: usize| -> i32 {
+        let m = coefs[k].iter().map(|c| c.unsigned_abs()).max().unwrap_or(0);
+        if m == 0 {
+            -1
+        } else {
+            (31 - m.leading_zeros() + weighting.shift(levels[k] as u32, big_l)) as i32
+        }
+    };
+    // Highest weighted plane below each node.
+    let mut below = vec![-1i32; tree.len()];
+    for k in (0..tree.len()).rev() {
+        below[k] = tree
+            .children(k)
+            .map(|c| weighted_top(c).max(below[c]))
+            .max()
+            .unwrap_or(-1);
+    }
+    let top = (0..tree.roots())
+        .map(|k| weighted_top(k).max(below[k]))
+        .max()
+        .unwrap_or(-1);
+    let planes = (top + 1) as u32;
+    let passes = max_passes.map_or(planes, |p| p.min(planes));
+    let params = StreamParams {
+        planes,
+        passes,
+        weighting,
+    };
+    let mut oracle = Truth {
+        coefs,
+        below: &below,
+    };
+    let mut writer = BitWriter::new();
+    let mut state = State::new(tree, params);
+    let mut pass_ends = Vec::with_capacity(passes as usize);
+    for pass in 0..passes {
+        let coded = state.pass(tree, pass, &mut writer, &mut oracle);
+        debug_assert!(coded.is_ok());
+        pass_ends.push(writer.len_needed());
+    }
+    let bytes = writer.finish();
+    for end in &mut pass_ends {
+        *end = (*end).min(bytes.len());
+    }
+    Encoded {
+        bytes,
+        params,
+        pass_ends,
+    }
+}
+
+/// Decodes up to `max_passes` passes from `data`, which may be cut anywhere.
+pub fn decode(
+    tree: &ZeroTree,
+    params: StreamParams,
+    data: &[u8],
+    max_passes: Option<u32>,
+) -> Decoded {
+    let passes = max_passes.map_or(params.passes, |p| p.min(params.passes));
+    let mut reader = BitReader::new(data);
+    let mut state = State::new(tree, params);
+    let mut done = 0;
+    let mut truncated = false;
+    for pass in 0..passes {
+        if state.pass(tree, pass, &mut reader, &mut Unknown).is_err() {
+            truncated = true;
+            break;
+        }
+        done += 1;
+    }
+    Decoded {
+        coefs: state.reconstruct(),
+        passes: done,
+        truncated,
+        bytes_read: reader.position(),
+    }
+}
+
+/// Encoder or decoder, seen from the scan.
+trait Coder {
+    fn code(&mut self, ctx: &mut Context, bit: bool) -> Result<bool, Truncated>;
+}
+
+impl Coder for BitWriter {
+    #[inline]
+    fn code(&mut self, ctx: &mut Context, bit: bool) -> Result<bool, Truncated> {
+        self.encode(ctx, bit);
+        Ok(bit)
+    }
+}
+
+impl Coder for BitReader<'_> {
+    #[inline]
+    fn code(&mut self, ctx: &mut Context, _: bool) -> Result<bool, Truncated> {
+        self.decode(ctx)
+    }
+}
+
+/// The true data behind the bits: the encoder has it, the decoder does not.
+trait Oracle {
+    fn magnitude(&self, node: usize, coord: usize) -> u32;
+    fn negative(&self, node: usize, coord: usize) -> bool;
+    fn below(&self, node: usize) -> i32;
+}
+
+struct Truth<'a> {
+    coefs: &'a [Coef],
+    below: &'a [i32],
+}
+
+impl Oracle for Truth<'_> {
+    #[inline]
+    fn magnitude(&self, node: usize, coord: usize) -> u32 {
+        self.coefs[node][coord].unsigned_abs()
+    }
+    #[inline]
+    fn negative(&self, node: usize, coord: usize) -> bool {
+        self.coefs[node][coord] < 0
+    }
+    #[inline]
+    fn below(&self, node: usize) -> i32 {
+        self.below[node]
+    }
+}
+
+struct Unknown;
+
+impl Oracle for Unknown {
+    fn magnitude(&self, _: usize, _: usize) -> u32 {
+        0
+    }
+    fn negative(&self, _: usize, _: usize) -> bool {
+        false
+    }
+    fn below(&self, _: usize) -> i32 {
+        -1
+    }
+}
+
+const LEVEL_CLASSES: usize = 4;
+
+/// Coarse level class: 0 = finest level, 1, 2, 3 = three or more above it.
+#[inline]
+fn level_class(level: u32, max_level: u32) -> usize {
+    ((max_level - level) as usize).min(LEVEL_CLASSES - 1)
+}
+
+#[derive(Clone)]
+struct Models {
+    /// [kind][level class][coord][parent state 3][own sig 3][siblings 3]
+    significance: Vec<Context>,
+    /// [coord][parent sign state 3]
+    sign: [Context; 9],
+    /// [kind][level class][own sig count 4]
+    zerotree: Vec<Context>,
+    /// [coord][first refinement?]
+    refine: [Context; 6],
+}
+
+impl Models {
+    fn new() -> Self {
+        Models {
+            significance: vec![Context::default(); 2 * LEVEL_CLASSES * 3 * 3 * 3 * 3],
+            sign: [Context::default(); 9],
+            zerotree: vec![Context::default(); 2 * LEVEL_CLASSES * 4],
+            refine: [Context::default(); 6],
+        }
+    }
+}
+
+/// What coder and decoder both know about each node.
+struct State {
+    params: StreamParams,
+    max_level: u32,
+    /// Bit `c` set: coordinate `c` is significant.
+    sig: Vec<u8>,
+    /// Bit `c` set: coordinate `c` is negative.
+    neg: Vec<u8>,
+    /// Whether the node's subtree has been opened.
+    open: Vec<bool>,
+    /// Magnitude bits known so far.
+    mag: Vec<[u32; 3]>,
+    /// Lowest bit plane known of each coordinate (meaningful once significant).
+    low: Vec<[u8; 3]>,
+    /// Significant coordinates in the order they became so: (node, coord).
+    refine_list: Vec<(u32, u8)>,
+    models: Models,
+    frontier: Vec<u32>,
+    next: Vec<u32>,
+}
+
+impl State {
+    fn new(tree: &ZeroTree, params: StreamParams) -> Self {
+        let n = tree.len();
+        State {
+            params,
+            max_level: tree.max_level(),
+            sig: vec![0; n],
+            neg: vec![0; n],
+            open: vec![false; n],
+            mag: vec![[0; 3]; n],
+            low: vec![[0; 3]; n],
+            refine_list: Vec::new(),
+            models: Models::new(),
+            frontier: Vec::new(),
+            next: Vec::new(),
+        }
+    }
+
+    /// Bit plane of a level-`level` coefficient coded in global plane `plane`.
+    #[inline]
+    fn own_plane(&self, plane: i32, level: u32) -> i32 {
+        plane - self.params.weighting.shift(level, self.max_level) as i32
+    }
+
+    /// One pass; `pass` 0 is the top plane.
+    fn pass<C: Coder, O: Oracle>(
+        &mut self,
+        tree: &ZeroTree,
+        pass: u32,
+        coder: &mut C,
+        oracle: &mut O,
+    ) -> Result<(), Truncated> {
+        let plane = self.params.planes as i32 - 1 - pass as i32;
+        let refine_before = self.refine_list.len();
+        self.dominant(tree, plane, coder, oracle)?;
+        self.subordinate(tree, plane, refine_before, coder, oracle)
+    }
+
+    fn dominant<C: Coder, O: Oracle>(
+        &mut self,
+        tree: &ZeroTree,
+        plane: i32,
+        coder: &mut C,
+        oracle: &mut O,
+    ) -> Result<(), Truncated> {
+        let levels = tree.levels();
+        let kinds = tree.kinds();
+        let parents = tree.parents();
+        let mut frontier = std::mem::take(&mut self.frontier);
+        let mut next = std::mem::take(&mut self.next);
+        frontier.clear();
+        frontier.extend(0..tree.roots() as u32);
+        let mut result = Ok(());
+        'levels: while !frontier.is_empty() {
+            next.clear();
+            for &k in &frontier {
+                let k = k as usize;
+                let level = levels[k] as u32;
+                let kind = kinds[k] as usize;
+                let class = level_class(level, self.max_level);
+                let b = self.own_plane(plane, level);
+                if b >= 0 && self.sig[k] != 0b111 {
+                    let parent = parents[k];
+                    for c in 0..3 {
+                        if self.sig[k] & (1 << c) != 0 {
+                            continue;
+                        }
+                        let parent_state = if parent == NO_PARENT {
+                            0
+                        } else if self.sig[parent as usize] & (1 << c) != 0 {
+                            2
+                        } else {
+                            1
+                        };
+                        let own = (self.sig[k].count_ones() as usize).min(2);
+                        let siblings = if parent == NO_PARENT {
+                            0
+                        } else {
+                            let first = tree.children(parent as usize).start;
+                            (first..k)
+                                .filter(|&s| self.sig[s] & (1 << c) != 0)
+                                .count()
+                                .min(2)
+                        };
+                        let ctx = ((((kind * LEVEL_CLASSES + class) * 3 + c) * 3 + parent_state)
+                            * 3
+                            + own)
+                            * 3
+                            + siblings;
+                        let truth = oracle.magnitude(k, c) >> b != 0;
+                        match coder.code(&mut self.models.significance[ctx], truth) {
+                            Ok(true) => {}
+                            Ok(false) => continue,
+                            Err(e) => {
+                                result = Err(e);
+                                break 'levels;
+                            }
+                        }
+                        let sign_ctx = c * 3
+                            + match parent {
+                                NO_PARENT => 0,
+                                p if self.sig[p as usize] & (1 << c) == 0 => 0,
+                                p if self.neg[p as usize] & (1 << c) != 0 => 2,
+                                _ => 1,
+                            };
+                        let negative = match coder
+                            .code(&mut self.models.sign[sign_ctx], oracle.negative(k, c))
+                        {
+                            Ok(n) => n,
+                            Err(e) => {
+                                result = Err(e);
+                                break 'levels;
+                            }
+                        };
+                        self.sig[k] |= 1 << c;
+                        if negative {
+                            self.neg[k] |= 1 << c;
+                        }
+                        self.mag[k][c] = 1 << b;
+                        self.low[k][c] = b as u8;
+                        self.refine_list.push((k as u32, c as u8));
+                    }
+                }
+                let children = tree.children(k);
+                if children.is_empty() {
+                    continue;
+                }
+                if !self.open[k] {
+                    let ctx =
+                        (kind * LEVEL_CLASSES + class) * 4 + self.sig[k].count_ones() as usize;
+                    match coder.code(&mut self.models.zerotree[ctx], oracle.below(k) >= plane) {
+                        Ok(true) => self.open[k] = true,
+                        Ok(false) => continue,
+                        Err(e) => {
+                            result = Err(e);
+                            break 'levels;
+                        }
+                    }
+                }
+                next.extend(children.map(|c| c as u32));
+            }
+            std::mem::swap(&mut frontier, &mut next);
+        }
+        self.frontier = frontier;
+        self.next = next;
+        result
+    }
+
+    fn subordinate<C: Coder, O: Oracle>(
+        &mut self,
+        tree: &ZeroTree,
+        plane: i32,
+        count: usize,
+        coder: &mut C,
+        oracle: &mut O,
+    ) -> Result<(), Truncated> {
+        let levels = tree.levels();
+        for i in 0..count {
+            let (k, c) = self.refine_list[i];
+            let (k, c) = (k as usize, c as usize);
+            let b = self.own_plane(plane, levels[k] as u32);
+            if b < 0 {
+                continue;
+            }
+            let first = (self.low[k][c] as i32 == b + 1) as usize;
+            let truth = (oracle.magnitude(k, c) >> b) & 1 != 0;
+            if coder.code(&mut self.models.refine[c * 2 + first], truth)? {
+                self.mag[k][c] |= 1 << b;
+            }
+            self.low[k][c] = b as u8;
+        }
+        // Coordinates whose level has reached plane 0 are exact: drop them.
+        if plane <= self.params.weighting.shift(1, self.max_level) as i32 {
+            let shift = |k: u32| {
+                self.params
+                    .weighting
+                    .shift(levels[k as usize] as u32, self.max_level) as i32
+            };
+            let keep: Vec<(u32, u8)> = self
+                .refine_list
+                .iter()
+                .copied()
+                .filter(|&(k, _)| plane - 1 - shift(k) >= 0)
+                .collect();
+            self.refine_list = keep;
+        }
+        Ok(())
+    }
+
+    /// Centre of every coefficient's uncertainty interval.
+    fn reconstruct(&self) -> Vec<Coef> {
+        (0..self.sig.len())
+            .map(|k| {
+                std::array::from_fn(|c| {
+                    if self.sig[k] & (1 << c) == 0 {
+                        return 0;
+                    }
+                    let low = self.low[k][c] as u32;
+                    let half = if low > 0 { 1u32 << (low - 1) } else { 0 };
+                    let m = (self.mag[k][c] + half) as i32;
+                    if self.neg[k] & (1 << c) != 0 { -m } else { m }
+                })
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use qm_lift::{BaseMesh, Layout};
+
+    fn layout(level: u32) -> Layout {
+        let base = BaseMesh::new(
+            8,
+            vec![
+                [0, 3, 2, 1],
+                [4, 5, 6, 7],
+                [0, 1, 5, 4],
+                [1, 2, 6, 5],
+                [2, 3, 7, 6],
+                [3, 0, 4, 7],
+            ],
+        )
+        .unwrap();
+        Layout::new(base, level).unwrap()
+    }
+
+    /// Coefficients that decay with level like a smooth surface's, with noise.
+    fn coefs(tree: &ZeroTree, seed: u64) -> Vec<Coef> {
+        let mut x = seed;
+        (0..tree.len())
+            .map(|k| {
+                let scale = 1i64 << (14 - 2 * tree.levels()[k] as i64).max(1);
+                std::array::from_fn(|_| {
+                    x ^= x << 13;
+                    x ^= x >> 7;
+                    x ^= x << 17;
+                    ((x % (2 * scale as u64 + 1)) as i64 - scale) as i32
+                })
+            })
+            .collect()
+    }
+
+    fn sq_error(a: &[Coef], b: &[Coef]) -> f64 {
+        a.iter()
+            .zip(b)
+            .flat_map(|(x, y)| (0..3).map(move |c| ((x[c] - y[c]) as f64).powi(2)))
+            .sum()
+    }
+
+    #[test]
+    fn lossless_after_all_passes() {
+        let layout = layout(4);
+        let tree = ZeroTree::new(&layout);
+        for weighting in [Weighting::default(), Weighting { bits_per_level: 0 }] {
+            let c = coefs(&tree, 99);
+            let enc = encode(&tree, &c, weighting, None);
+            let dec = decode(&tree, enc.params, &enc.bytes, None);
+            assert!(!dec.truncated);
+            assert_eq!(dec.passes, enc.params.planes);
+            assert_eq!(dec.coefs, c);
+        }
+    }
+
+    #[test]
+    fn all_zero_coefficients_cost_nothing() {
+        let tree = ZeroTree::new(&layout(3));
+        let enc = encode(&tree, &vec![[0; 3]; tree.len()], Weighting::default(), None);
+        assert_eq!(enc.params.planes, 0);
+        let dec = decode(&tree, enc.params, &enc.bytes, None);
+        assert!(dec.coefs.iter().all(|c| *c == [0; 3]));
+    }
+
+    #[test]
+    fn prefixes_decode_and_error_never_rises() {
+        let tree = ZeroTree::new(&layout(4));
+        let c = coefs(&tree, 5);
+        let enc = encode(&tree, &c, Weighting { bits_per_level: 0 }, None);
+        let mut last = f64::INFINITY;
+        for cut in (0..=enc.bytes.len())
+            .step_by(enc.bytes.len() / 60 + 1)
+            .chain([enc.bytes.len()])
+        {
+            let dec = decode(&tree, enc.params, &enc.bytes[..cut], None);
+            let err = sq_error(&dec.coefs, &c);
+            assert!(err <= last, "cut {cut}: {err} > {last}");
+            last = err;
+        }
+        assert_eq!(last, 0.0);
+    }
+
+    #[test]
+    fn fewer_passes_are_a_prefix_of_more() {
+        let tree = ZeroTree::new(&layout(3));
+        let c = coefs(&tree, 11);
+        let full = encode(&tree, &c, Weighting::default(), None);
+        let four = encode(&tree, &c, Weighting::default(), Some(4));
+        assert_eq!(four.params.passes, 4);
+        let a = decode(&tree, four.params, &four.bytes, None);
+        let b = decode(&tree, full.params, &full.bytes, Some(4));
+        assert_eq!(a.coefs, b.coefs);
+        assert_eq!(a.passes, 4);
+        assert!(full.pass_ends.windows(2).all(|w| w[0] <= w[1]));
+    }
+}
