@@ -294,8 +294,8 @@ struct State {
     mag: Vec<[u32; 3]>,
     /// Lowest bit plane known of each coordinate (meaningful once significant).
     low: Vec<[u8; 3]>,
-    /// Significant coordinates in the order they became so: (node, coord).
-    refine_list: Vec<(u32, u8)>,
+    /// Per level, significant coordinates in the order they became so.
+    refine_lists: Vec<Vec<(u32, u8)>>,
     models: Models,
     frontier: Vec<u32>,
     next: Vec<u32>,
@@ -312,7 +312,7 @@ impl State {
             open: vec![false; n],
             mag: vec![[0; 3]; n],
             low: vec![[0; 3]; n],
-            refine_list: Vec::new(),
+            refine_lists: vec![Vec::new(); tree.max_level() as usize],
             models: Models::new(),
             frontier: Vec::new(),
             next: Vec::new(),
@@ -325,7 +325,12 @@ impl State {
         plane - self.params.weighting.shift(level, self.max_level) as i32
     }
 
-    /// One pass; `pass` 0 is the top plane.
+    /// One pass; `pass` 0 is the top plane. Level by level, coarse to fine:
+    /// first the refinement bits of the level's coefficients that were
+    /// significant before the pass, then its significance and zerotree bits.
+    /// Refining the coarse levels before the fine ones become significant
+    /// keeps the error from rising inside a pass: a fine detail revealed over
+    /// a still-coarse parent can undo an accidental cancellation.
     fn pass<C: Coder, O: Oracle>(
         &mut self,
         tree: &ZeroTree,
@@ -334,15 +339,15 @@ impl State {
         oracle: &mut O,
     ) -> Result<(), Truncated> {
         let plane = self.params.planes as i32 - 1 - pass as i32;
-        let refine_before = self.refine_list.len();
-        self.dominant(tree, plane, coder, oracle)?;
-        self.subordinate(tree, plane, refine_before, coder, oracle)
+        let before: Vec<usize> = self.refine_lists.iter().map(Vec::len).collect();
+        self.dominant(tree, plane, &before, coder, oracle)
     }
 
     fn dominant<C: Coder, O: Oracle>(
         &mut self,
         tree: &ZeroTree,
         plane: i32,
+        refine_before: &[usize],
         coder: &mut C,
         oracle: &mut O,
     ) -> Result<(), Truncated> {
@@ -354,7 +359,20 @@ impl State {
         frontier.clear();
         frontier.extend(0..tree.roots() as u32);
         let mut result = Ok(());
+        // Breadth first: the frontier holds the visited nodes of one level.
+        let mut depth = 1;
         'levels: while !frontier.is_empty() {
+            if let Err(e) = self.refine(
+                depth,
+                plane,
+                refine_before[depth as usize - 1],
+                coder,
+                oracle,
+            ) {
+                result = Err(e);
+                break 'levels;
+            }
+            depth += 1;
             next.clear();
             for &k in &frontier {
                 let k = k as usize;
@@ -421,7 +439,7 @@ impl State {
                         }
                         self.mag[k][c] = 1 << b;
                         self.low[k][c] = b as u8;
-                        self.refine_list.push((k as u32, c as u8));
+                        self.refine_lists[level as usize - 1].push((k as u32, c as u8));
                     }
                 }
                 let children = tree.children(k);
@@ -449,43 +467,30 @@ impl State {
         result
     }
 
-    fn subordinate<C: Coder, O: Oracle>(
+    /// Refinement bits of the first `count` significant coordinates of `level`.
+    fn refine<C: Coder, O: Oracle>(
         &mut self,
-        tree: &ZeroTree,
+        level: u32,
         plane: i32,
         count: usize,
         coder: &mut C,
         oracle: &mut O,
     ) -> Result<(), Truncated> {
-        let levels = tree.levels();
+        let b = self.own_plane(plane, level);
+        if b < 0 {
+            // Every coordinate of this level is exact.
+            self.refine_lists[level as usize - 1] = Vec::new();
+            return Ok(());
+        }
         for i in 0..count {
-            let (k, c) = self.refine_list[i];
+            let (k, c) = self.refine_lists[level as usize - 1][i];
             let (k, c) = (k as usize, c as usize);
-            let b = self.own_plane(plane, levels[k] as u32);
-            if b < 0 {
-                continue;
-            }
             let first = (self.low[k][c] as i32 == b + 1) as usize;
             let truth = (oracle.magnitude(k, c) >> b) & 1 != 0;
             if coder.code(&mut self.models.refine[c * 2 + first], truth)? {
                 self.mag[k][c] |= 1 << b;
             }
             self.low[k][c] = b as u8;
-        }
-        // Coordinates whose level has reached plane 0 are exact: drop them.
-        if plane <= self.params.weighting.shift(1, self.max_level) as i32 {
-            let shift = |k: u32| {
-                self.params
-                    .weighting
-                    .shift(levels[k as usize] as u32, self.max_level) as i32
-            };
-            let keep: Vec<(u32, u8)> = self
-                .refine_list
-                .iter()
-                .copied()
-                .filter(|&(k, _)| plane - 1 - shift(k) >= 0)
-                .collect();
-            self.refine_list = keep;
         }
         Ok(())
     }
@@ -511,22 +516,10 @@ impl State {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use qm_lift::{BaseMesh, Layout};
+    use qm_lift::Layout;
 
     fn layout(level: u32) -> Layout {
-        let base = BaseMesh::new(
-            8,
-            vec![
-                [0, 3, 2, 1],
-                [4, 5, 6, 7],
-                [0, 1, 5, 4],
-                [1, 2, 6, 5],
-                [2, 3, 7, 6],
-                [3, 0, 4, 7],
-            ],
-        )
-        .unwrap();
-        Layout::new(base, level).unwrap()
+        Layout::new(qm_lift::synthetic::cube(), level).unwrap()
     }
 
     /// Coefficients that decay with level like a smooth surface's, with noise.

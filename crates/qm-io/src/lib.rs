@@ -1,10 +1,23 @@
-//! The `.qm` container and mesh file input/output.
+//! The `.qm` container, the codec driver, and mesh file input/output.
 //!
-//! Main types: [`PolyMesh`] (what mesh files hold).
+//! [`compress`] turns a [`qm_lift::SemiRegularMesh`] into the bytes of a `.qm`
+//! file (header, base mesh, embedded stream; see [`container`]) and
+//! [`decompress`] turns any prefix of those bytes that contains the base mesh
+//! back into a mesh. [`mesh`] reads and writes OBJ, PLY, OFF and STL files
+//! into [`PolyMesh`].
+//!
+//! Main types: [`EncodeOptions`], [`Compressed`], [`DecodeOptions`],
+//! [`Decompressed`], [`container::Header`], [`PolyMesh`], [`Error`].
 
+mod codec;
+pub mod container;
+mod error;
 pub mod mesh;
 mod polymesh;
 
+pub use codec::{Compressed, DecodeOptions, Decompressed, EncodeOptions, compress, decompress};
+pub use container::Limits;
+pub use error::{Error, Result};
 pub use polymesh::PolyMesh;
-pub use qm_ezw;
-pub use qm_lift;
+pub use qm_ezw::{self, Weighting};
+pub use qm_lift::{self, UpdateRule};

@@ -17,12 +17,19 @@ pub struct PolyMesh {
 impl PolyMesh {
     /// An empty mesh.
     pub fn new() -> Self {
-        PolyMesh { positions: Vec::new(), indices: Vec::new(), offsets: vec![0] }
+        PolyMesh {
+            positions: Vec::new(),
+            indices: Vec::new(),
+            offsets: vec![0],
+        }
     }
 
     /// A mesh from positions and faces of a fixed size (triangles or quads).
     pub fn from_faces<const K: usize>(positions: Vec<DVec3>, faces: &[[u32; K]]) -> Self {
-        let mut mesh = PolyMesh { positions, ..PolyMesh::new() };
+        let mut mesh = PolyMesh {
+            positions,
+            ..PolyMesh::new()
+        };
         for face in faces {
             mesh.push_face(face);
         }

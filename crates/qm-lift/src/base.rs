@@ -152,14 +152,19 @@ impl BaseMesh {
                 if corners[v] != 4 {
                     return false;
                 }
+                // One closed fan: back at the start after exactly four steps,
+                // not before (two fans of two faces also have four corners).
                 let (mut f, mut c) = first[v];
-                for _ in 0..4 {
+                for step in 1..=4 {
                     match self.rotate(f, c) {
                         Some(next) => (f, c) = next,
                         None => return false,
                     }
+                    if ((f, c) == first[v]) != (step == 4) {
+                        return false;
+                    }
                 }
-                (f, c) == first[v]
+                true
             })
             .collect()
     }
@@ -224,22 +229,7 @@ impl BaseMesh {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A cube, faces outward and counter-clockwise.
-    pub(crate) fn cube() -> BaseMesh {
-        BaseMesh::new(
-            8,
-            vec![
-                [0, 3, 2, 1],
-                [4, 5, 6, 7],
-                [0, 1, 5, 4],
-                [1, 2, 6, 5],
-                [2, 3, 7, 6],
-                [3, 0, 4, 7],
-            ],
-        )
-        .unwrap()
-    }
+    use crate::synthetic::cube;
 
     #[test]
     fn cube_is_closed_with_irregular_corners() {

@@ -245,21 +245,7 @@ impl Layout {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn cube() -> BaseMesh {
-        BaseMesh::new(
-            8,
-            vec![
-                [0, 3, 2, 1],
-                [4, 5, 6, 7],
-                [0, 1, 5, 4],
-                [1, 2, 6, 5],
-                [2, 3, 7, 6],
-                [3, 0, 4, 7],
-            ],
-        )
-        .unwrap()
-    }
+    use crate::synthetic::cube;
 
     #[test]
     fn side_coords_invert_side_point() {

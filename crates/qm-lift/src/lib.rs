@@ -15,6 +15,7 @@ mod error;
 mod layout;
 mod lifting;
 mod mesh;
+pub mod synthetic;
 
 pub use base::{BaseMesh, Edge, NO_FACE, Side};
 pub use error::{Error, Result};

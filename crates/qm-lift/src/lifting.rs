@@ -385,19 +385,7 @@ mod tests {
     use crate::base::BaseMesh;
 
     fn cube(level: u32) -> Layout {
-        let base = BaseMesh::new(
-            8,
-            vec![
-                [0, 3, 2, 1],
-                [4, 5, 6, 7],
-                [0, 1, 5, 4],
-                [1, 2, 6, 5],
-                [2, 3, 7, 6],
-                [3, 0, 4, 7],
-            ],
-        )
-        .unwrap();
-        Layout::new(base, level).unwrap()
+        Layout::new(crate::synthetic::cube(), level).unwrap()
     }
 
     fn open_grid(level: u32) -> Layout {

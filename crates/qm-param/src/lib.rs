@@ -1,1 +1,20 @@
-//! From an input mesh to a semi-regular quad mesh (in progress).
+//! From an input mesh to a semi-regular quad mesh.
+//!
+//! A quad mesh that already has subdivision connectivity (made by repeated
+//! quad splitting, as Catmull-Clark subdivision in a modelling tool does) is
+//! taken as it is: [`detect_subdivision`] undoes the splitting level by level
+//! and returns the coarsest base mesh with the input as its finest level, a
+//! [`SemiRegularMesh`], plus which input vertex each sample is ([`Detected`]).
+//! Meshes without that connectivity need remeshing.
+//!
+//! This crate reads meshes through `qm-io`'s [`PolyMesh`] and builds
+//! `qm-lift`'s types; it knows nothing of trees, coding or files.
+
+mod error;
+mod quads;
+mod subdivision;
+
+pub use error::{Error, Result};
+pub use qm_io::PolyMesh;
+pub use qm_lift::SemiRegularMesh;
+pub use subdivision::{Detected, detect_subdivision};

@@ -259,21 +259,7 @@ impl ZeroTree {
 mod tests {
     use super::*;
     use qm_lift::BaseMesh;
-
-    fn cube() -> BaseMesh {
-        BaseMesh::new(
-            8,
-            vec![
-                [0, 3, 2, 1],
-                [4, 5, 6, 7],
-                [0, 1, 5, 4],
-                [1, 2, 6, 5],
-                [2, 3, 7, 6],
-                [3, 0, 4, 7],
-            ],
-        )
-        .unwrap()
-    }
+    use qm_lift::synthetic::cube;
 
     fn holed_grid() -> BaseMesh {
         let v = |x: u32, y: u32| y * 4 + x;

@@ -1,1 +1,66 @@
-//! stub
+//! qm: progressive compression of meshes.
+//!
+//! A mesh goes in; an *embedded* bitstream comes out, and any prefix of that
+//! stream decodes to a crack-free mesh whose error falls as more bytes
+//! arrive. The pipeline is a ladder of crates, each usable alone:
+//!
+//! | module | crate | owns |
+//! |---|---|---|
+//! | [`lift`] | `qm-lift` | base quad meshes, sample layouts, quantization, the integer lifting transform |
+//! | [`tree`] | `qm-tree` | zerotrees over edge and face coefficients |
+//! | [`ezw`] | `qm-ezw` | bit-plane zerotree coding, the arithmetic coder |
+//! | [`io`] | `qm-io` | the `.qm` container, the codec driver, mesh files |
+//! | [`param`] | `qm-param` | input mesh to semi-regular mesh |
+//!
+//! ```no_run
+//! # fn main() -> qm::Result<()> {
+//! let mesh = qm::read_mesh("model.obj".as_ref())?;
+//! let prepared = qm::prepare(&mesh)?;
+//! let compressed = qm::compress(&prepared.mesh, &qm::EncodeOptions::DEFAULT)?;
+//! // Any prefix after the base mesh decodes.
+//! let cut = &compressed.bytes[..compressed.bytes.len() / 2];
+//! let decoded = qm::decompress(cut, &qm::DecodeOptions::default())?;
+//! qm::write_mesh("coarse.obj".as_ref(), &decoded.to_polymesh())?;
+//! # Ok(()) }
+//! ```
+
+mod error;
+
+pub use error::{Error, Result};
+pub use qm_ezw as ezw;
+pub use qm_io as io;
+pub use qm_lift as lift;
+pub use qm_param as param;
+pub use qm_tree as tree;
+
+pub use qm_io::{
+    Compressed, DecodeOptions, Decompressed, EncodeOptions, Limits, PolyMesh, UpdateRule, Weighting,
+};
+pub use qm_lift::SemiRegularMesh;
+pub use qm_param::Detected;
+
+/// Reads a mesh file (OBJ, PLY, OFF or STL).
+pub fn read_mesh(path: &std::path::Path) -> Result<PolyMesh> {
+    Ok(qm_io::mesh::read_mesh(path)?)
+}
+
+/// Writes a mesh file (OBJ or PLY, by extension), atomically.
+pub fn write_mesh(path: &std::path::Path, mesh: &PolyMesh) -> Result<()> {
+    Ok(qm_io::mesh::write_mesh(path, mesh)?)
+}
+
+/// Turns an input mesh into a semi-regular quad mesh: a quad mesh with
+/// subdivision connectivity is taken as it is.
+pub fn prepare(mesh: &PolyMesh) -> Result<Detected> {
+    Ok(qm_param::detect_subdivision(mesh)?)
+}
+
+/// Compresses a semi-regular mesh.
+pub fn compress(mesh: &SemiRegularMesh, options: &EncodeOptions) -> Result<Compressed> {
+    Ok(qm_io::compress(mesh, options)?)
+}
+
+/// Decompresses `.qm` bytes; any cut after the base mesh is fine.
+pub fn decompress(bytes: &[u8], options: &DecodeOptions) -> Result<Decompressed> {
+    Ok(qm_io::decompress(bytes, options)?)
+}

@@ -1,0 +1,61 @@
+//! Throughput of the codec on a semi-regular mesh of 1.57M samples (a cube
+//! refined 9 times): lifting forward + inverse, the bit-plane coder, and
+//! whole-file decoding of the complete stream and of prefixes.
+//!
+//! Run with `cargo bench --bench codec`; figures are in coefficients
+//! (samples) per second.
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use qm::lift::{Lifting, Quantizer, UpdateRule, synthetic::bumpy_sphere};
+use qm::{DecodeOptions, EncodeOptions};
+
+const LEVEL: u32 = 9;
+
+fn codec(c: &mut Criterion) {
+    let mesh = bumpy_sphere(LEVEL);
+    let layout = mesh.layout();
+    let samples = layout.sample_count() as u64;
+    let quantized = Quantizer::fit(mesh.positions(), 16)
+        .unwrap()
+        .quantize_all(mesh.positions());
+
+    let mut group = c.benchmark_group("lifting");
+    group
+        .sample_size(10)
+        .throughput(Throughput::Elements(samples));
+    group.bench_function("forward+inverse", |b| {
+        let lifting = Lifting::new(layout, UpdateRule::MeanPreserving);
+        let mut data = quantized.clone();
+        b.iter(|| {
+            lifting.forward(&mut data);
+            lifting.inverse(&mut data);
+        })
+    });
+    group.finish();
+
+    let full = qm::compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
+    let mut group = c.benchmark_group("codec");
+    group
+        .sample_size(10)
+        .throughput(Throughput::Elements(samples));
+    group.bench_function("encode/lossless", |b| {
+        b.iter(|| qm::compress(&mesh, &EncodeOptions::DEFAULT).unwrap())
+    });
+    group.bench_function("decode/lossless", |b| {
+        b.iter(|| qm::decompress(&full.bytes, &DecodeOptions::default()).unwrap())
+    });
+    // A prefix of about 1 byte per 20 samples: a typical streaming preview.
+    for (name, bytes) in [
+        ("decode/prefix-1:20", samples as usize / 20),
+        ("decode/prefix-1:4", samples as usize / 4),
+    ] {
+        let options = DecodeOptions::default().with_max_bytes(Some(bytes));
+        group.bench_function(name, |b| {
+            b.iter(|| qm::decompress(&full.bytes, &options).unwrap())
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, codec);
+criterion_main!(benches);

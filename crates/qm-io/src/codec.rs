@@ -1,0 +1,329 @@
+//! The whole codec: semi-regular mesh to `.qm` bytes and back.
+//!
+//! Encoding quantizes the samples, lifts them, gathers the details into
+//! zerotree order and codes them in bit planes; the base vertices' level-0
+//! values go into the base section. Decoding reverses each step on whatever
+//! prefix of the stream is present.
+
+use qm_ezw::{StreamParams, Weighting, ZeroTree};
+use qm_lift::glam::DVec3;
+use qm_lift::{BaseMesh, Coord, Layout, Lifting, Quantizer, SemiRegularMesh, UpdateRule};
+
+use crate::container::{self, BaseSection, Header, Limits};
+use crate::{Error, PolyMesh, Result};
+
+/// Encoder settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct EncodeOptions {
+    /// Quantization bits per coordinate ([`qm_lift::DEFAULT_BITS`]).
+    pub bits: u32,
+    /// Most passes to code; `None` codes all, down to lossless.
+    pub passes: Option<u32>,
+    /// Most bytes for the whole file; the stream is cut to fit.
+    pub max_bytes: Option<usize>,
+    /// Lifting update rule.
+    pub update: UpdateRule,
+    /// Level weighting of the bit-plane coder.
+    pub weighting: Weighting,
+}
+
+impl EncodeOptions {
+    /// The defaults: 16 bits, every pass, no size cap, mean-preserving
+    /// update, one bit of weight per level.
+    pub const DEFAULT: EncodeOptions = EncodeOptions {
+        bits: qm_lift::DEFAULT_BITS,
+        passes: None,
+        max_bytes: None,
+        update: UpdateRule::MeanPreserving,
+        weighting: Weighting { bits_per_level: 1 },
+    };
+
+    /// Sets the quantization bits.
+    pub const fn with_bits(mut self, bits: u32) -> Self {
+        self.bits = bits;
+        self
+    }
+
+    /// Sets the pass limit.
+    pub const fn with_passes(mut self, passes: Option<u32>) -> Self {
+        self.passes = passes;
+        self
+    }
+
+    /// Sets the byte budget.
+    pub const fn with_max_bytes(mut self, max_bytes: Option<usize>) -> Self {
+        self.max_bytes = max_bytes;
+        self
+    }
+
+    /// Sets the update rule.
+    pub const fn with_update(mut self, update: UpdateRule) -> Self {
+        self.update = update;
+        self
+    }
+
+    /// Sets the level weighting.
+    pub const fn with_weighting(mut self, weighting: Weighting) -> Self {
+        self.weighting = weighting;
+        self
+    }
+}
+
+impl Default for EncodeOptions {
+    fn default() -> Self {
+        EncodeOptions::DEFAULT
+    }
+}
+
+/// An encoded mesh and what went into it.
+#[derive(Clone, Debug)]
+pub struct Compressed {
+    /// The `.qm` file contents.
+    pub bytes: Vec<u8>,
+    /// Bytes of magic, version, header and checksum.
+    pub header_bytes: usize,
+    /// Bytes of the base section.
+    pub base_bytes: usize,
+    /// File size needed to decode the first `k + 1` passes, for each pass.
+    pub pass_ends: Vec<usize>,
+    /// The quantized samples the stream reproduces exactly when complete.
+    pub quantized: Vec<Coord>,
+    /// The quantizer used.
+    pub quantizer: Quantizer,
+}
+
+/// Compresses a semi-regular mesh.
+pub fn compress(mesh: &SemiRegularMesh, options: &EncodeOptions) -> Result<Compressed> {
+    let layout = mesh.layout();
+    let quantizer = Quantizer::fit(mesh.positions(), options.bits)?;
+    let quantized = quantizer.quantize_all(mesh.positions());
+    let mut data = quantized.clone();
+    Lifting::new(layout, options.update).forward(&mut data);
+    let tree = ZeroTree::new(layout);
+    let coefs = tree.gather(&data);
+    let encoded = qm_ezw::encode(&tree, &coefs, options.weighting, options.passes);
+    let base = layout.base();
+    let header = Header {
+        bits: options.bits as u8,
+        level: layout.level() as u8,
+        update: options.update.code(),
+        weight_bits: options.weighting.bits_per_level as u8,
+        origin: quantizer.origin,
+        step: quantizer.step,
+        base_vertices: base.vertex_count(),
+        base_faces: base.faces().len() as u32,
+        planes: encoded.params.planes as u8,
+        passes: encoded.params.passes as u8,
+        flags: 0,
+    };
+    let section = BaseSection {
+        faces: base.faces().to_vec(),
+        values: data[..base.vertex_count() as usize].to_vec(),
+    };
+    let mut bytes = container::write(&header, &section, &encoded.bytes)?;
+    let prefix = bytes.len() - encoded.bytes.len();
+    let header_bytes = header_len(&bytes);
+    let base_bytes = prefix - header_bytes;
+    if let Some(max) = options.max_bytes {
+        if max < prefix {
+            return Err(Error::Limit {
+                what: "byte budget",
+                value: max as u64,
+                max: prefix as u64,
+            });
+        }
+        bytes.truncate(max);
+    }
+    let pass_ends = encoded
+        .pass_ends
+        .iter()
+        .map(|e| (prefix + e).min(bytes.len()))
+        .collect();
+    Ok(Compressed {
+        bytes,
+        header_bytes,
+        base_bytes,
+        pass_ends,
+        quantized,
+        quantizer,
+    })
+}
+
+/// Magic, version, length, header and checksum of a written container.
+fn header_len(bytes: &[u8]) -> usize {
+    7 + u16::from_le_bytes([bytes[5], bytes[6]]) as usize + 4
+}
+
+/// Decoder settings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub struct DecodeOptions {
+    /// Use only the first this many bytes, as if the rest never arrived.
+    pub max_bytes: Option<usize>,
+    /// Decode at most this many passes.
+    pub passes: Option<u32>,
+    /// Reconstruct this subdivision level (default: the finest).
+    pub level: Option<u32>,
+    /// Limits on what the header may ask for.
+    pub limits: Limits,
+}
+
+impl DecodeOptions {
+    /// Sets the byte budget.
+    pub const fn with_max_bytes(mut self, max_bytes: Option<usize>) -> Self {
+        self.max_bytes = max_bytes;
+        self
+    }
+
+    /// Sets the pass limit.
+    pub const fn with_passes(mut self, passes: Option<u32>) -> Self {
+        self.passes = passes;
+        self
+    }
+
+    /// Sets the output level.
+    pub const fn with_level(mut self, level: Option<u32>) -> Self {
+        self.level = level;
+        self
+    }
+
+    /// Sets the limits.
+    pub const fn with_limits(mut self, limits: Limits) -> Self {
+        self.limits = limits;
+        self
+    }
+}
+
+/// A decoded mesh.
+#[derive(Clone, Debug)]
+pub struct Decompressed {
+    /// The sample layout (finest level).
+    pub layout: Layout,
+    /// Reconstructed quantized values; at [`Self::level`] below the finest,
+    /// only the samples of that level hold positions.
+    pub values: Vec<Coord>,
+    /// The quantizer of the header.
+    pub quantizer: Quantizer,
+    /// The level reconstructed.
+    pub level: u32,
+    /// The header.
+    pub header: Header,
+    /// Passes decoded completely.
+    pub passes: u32,
+    /// Whether the stream ended before the passes asked for.
+    pub truncated: bool,
+    /// Bytes of header and base section.
+    pub header_bytes: usize,
+    /// Bytes of the base section.
+    pub base_bytes: usize,
+    /// Stream bytes present.
+    pub stream_bytes: usize,
+}
+
+impl Decompressed {
+    /// The mesh at the decoded level: positions of that level's samples and
+    /// its quads.
+    pub fn to_polymesh(&self) -> PolyMesh {
+        let samples = self.layout.samples_at(self.level);
+        let mut index = vec![u32::MAX; self.layout.sample_count()];
+        for (i, &s) in samples.iter().enumerate() {
+            index[s as usize] = i as u32;
+        }
+        let positions = samples.iter().map(|&s| self.position(s as usize)).collect();
+        let quads: Vec<[u32; 4]> = self
+            .layout
+            .quads(self.level)
+            .iter()
+            .map(|q| q.map(|s| index[s as usize]))
+            .collect();
+        PolyMesh::from_faces(positions, &quads)
+    }
+
+    /// World position of sample `s`.
+    pub fn position(&self, s: usize) -> DVec3 {
+        self.quantizer.dequantize(self.values[s].map(f64::from))
+    }
+
+    /// The finest-level semi-regular mesh (only meaningful when decoded at
+    /// the finest level).
+    pub fn to_semi_regular(&self) -> Result<SemiRegularMesh> {
+        let positions = (0..self.values.len()).map(|s| self.position(s)).collect();
+        Ok(SemiRegularMesh::new(self.layout.clone(), positions)?)
+    }
+}
+
+/// Decompresses `.qm` bytes, which may be cut anywhere after the base mesh.
+pub fn decompress(bytes: &[u8], options: &DecodeOptions) -> Result<Decompressed> {
+    let bytes = &bytes[..options
+        .max_bytes
+        .map_or(bytes.len(), |m| m.min(bytes.len()))];
+    let c = container::read(bytes, &options.limits)?;
+    let h = &c.header;
+    let base = BaseMesh::new(h.base_vertices, c.base.faces.clone())?;
+    let layout = Layout::new(base, h.level as u32)?;
+    let tree = ZeroTree::new(&layout);
+    let params = StreamParams {
+        planes: h.planes as u32,
+        passes: h.passes as u32,
+        weighting: Weighting {
+            bits_per_level: h.weight_bits as u32,
+        },
+    };
+    let decoded = qm_ezw::decode(&tree, params, c.stream, options.passes);
+    let mut values = vec![[0; 3]; layout.sample_count()];
+    values[..c.base.values.len()].copy_from_slice(&c.base.values);
+    tree.scatter(&decoded.coefs, &mut values);
+    let level = options
+        .level
+        .map_or(layout.level(), |l| l.min(layout.level()));
+    let update = qm_lift::UpdateRule::from_code(h.update).expect("checked by the container");
+    Lifting::new(&layout, update).inverse_to(&mut values, level);
+    let quantizer = Quantizer {
+        bits: h.bits as u32,
+        origin: h.origin,
+        step: h.step,
+    };
+    Ok(Decompressed {
+        values,
+        quantizer,
+        level,
+        header: c.header.clone(),
+        passes: decoded.passes,
+        truncated: decoded.truncated,
+        header_bytes: c.header_bytes,
+        base_bytes: c.base_bytes,
+        stream_bytes: c.stream.len(),
+        layout,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    use qm_lift::synthetic::bumpy_sphere as sphere;
+
+    #[test]
+    fn lossless_at_the_last_pass() {
+        let mesh = sphere(4);
+        let c = compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
+        let d = decompress(&c.bytes, &DecodeOptions::default()).unwrap();
+        assert_eq!(d.values, c.quantized);
+        assert!(!d.truncated);
+        assert_eq!(d.passes, d.header.planes as u32);
+    }
+
+    #[test]
+    fn byte_budget_and_coarser_levels() {
+        let mesh = sphere(4);
+        let c = compress(&mesh, &EncodeOptions::DEFAULT.with_max_bytes(Some(600))).unwrap();
+        assert_eq!(c.bytes.len(), 600);
+        let d = decompress(&c.bytes, &DecodeOptions::default().with_level(Some(2))).unwrap();
+        assert!(d.truncated);
+        let poly = d.to_polymesh();
+        assert_eq!(poly.face_count(), 6 * 16);
+        assert_eq!(poly.positions.len(), 6 * 16 + 2);
+        assert!(compress(&mesh, &EncodeOptions::DEFAULT.with_max_bytes(Some(10))).is_err());
+    }
+}

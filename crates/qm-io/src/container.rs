@@ -1,0 +1,406 @@
+//! The `.qm` container: magic, header, base mesh, embedded stream.
+//!
+//! | bytes | content |
+//! |---|---|
+//! | 4 | magic `89 51 4D 0A` (`\x89QM\n`) |
+//! | 1 | format version ([`VERSION`]) |
+//! | 2 | header length `H`, little endian |
+//! | `H` | [`Header`], bincode (standard configuration: varints) |
+//! | 4 | CRC-32 of everything above |
+//! | 4 | base section length `B`, little endian |
+//! | `B` | base mesh: face corners, then the level-0 scaling values (bincode, delta-coded) |
+//! | 4 | CRC-32 of the base section |
+//! | rest | the embedded EZW stream, to the end of the data |
+//!
+//! The stream has no length field and no checksum: any prefix of it is a
+//! valid, coarser stream. Everything before it is checked, and a cut there is
+//! reported with the number of bytes needed.
+
+use serde::{Deserialize, Serialize};
+
+use crate::{Error, Result};
+
+/// Magic bytes at the start of every `.qm` file.
+pub const MAGIC: [u8; 4] = [0x89, b'Q', b'M', b'\n'];
+
+/// The container version this build writes and reads.
+pub const VERSION: u8 = 1;
+
+/// Everything a decoder needs besides the base mesh and the stream.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Header {
+    /// Quantization bits per coordinate.
+    pub bits: u8,
+    /// Subdivision levels above the base mesh.
+    pub level: u8,
+    /// Lifting update rule ([`qm_lift::UpdateRule::code`]).
+    pub update: u8,
+    /// Weighting bits per level of the bit-plane coder.
+    pub weight_bits: u8,
+    /// Quantization grid origin.
+    pub origin: [f64; 3],
+    /// Quantization step.
+    pub step: f64,
+    /// Number of base vertices.
+    pub base_vertices: u32,
+    /// Number of base faces.
+    pub base_faces: u32,
+    /// Bit planes of the complete stream.
+    pub planes: u8,
+    /// Passes the stream holds (at most `planes`).
+    pub passes: u8,
+    /// Reserved, zero.
+    pub flags: u32,
+}
+
+/// The base mesh as stored: corners of each face, then the level-0 scaling
+/// value of each base vertex.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BaseSection {
+    /// Counter-clockwise corners of each base face.
+    pub faces: Vec<[u32; 4]>,
+    /// Quantized level-0 values, one per base vertex.
+    pub values: Vec<[i32; 3]>,
+}
+
+#[derive(Serialize, Deserialize)]
+struct StoredBase {
+    faces: Vec<[u32; 4]>,
+    deltas: Vec<[i32; 3]>,
+}
+
+/// A parsed container: header, base mesh and the stream bytes that follow.
+#[derive(Clone, Debug)]
+pub struct Container<'a> {
+    /// The header.
+    pub header: Header,
+    /// The base mesh.
+    pub base: BaseSection,
+    /// The embedded stream (as much of it as is present).
+    pub stream: &'a [u8],
+    /// Bytes of magic, version, header and its checksum.
+    pub header_bytes: usize,
+    /// Bytes of the base section with its length and checksum.
+    pub base_bytes: usize,
+}
+
+fn config() -> bincode::config::Configuration {
+    bincode::config::standard()
+}
+
+/// Writes a complete container.
+pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u8>> {
+    let header_bytes =
+        bincode::serde::encode_to_vec(header, config()).map_err(|e| Error::Malformed {
+            what: e.to_string(),
+        })?;
+    let mut out = Vec::with_capacity(64 + stream.len());
+    out.extend_from_slice(&MAGIC);
+    out.push(VERSION);
+    out.extend_from_slice(&(header_bytes.len() as u16).to_le_bytes());
+    out.extend_from_slice(&header_bytes);
+    out.extend_from_slice(&crc32fast::hash(&out).to_le_bytes());
+
+    let mut previous = [0i32; 3];
+    let deltas = base
+        .values
+        .iter()
+        .map(|v| {
+            let d = std::array::from_fn(|k| v[k].wrapping_sub(previous[k]));
+            previous = *v;
+            d
+        })
+        .collect();
+    let stored = StoredBase {
+        faces: base.faces.clone(),
+        deltas,
+    };
+    let base_bytes =
+        bincode::serde::encode_to_vec(&stored, config()).map_err(|e| Error::Malformed {
+            what: e.to_string(),
+        })?;
+    out.extend_from_slice(&(base_bytes.len() as u32).to_le_bytes());
+    out.extend_from_slice(&base_bytes);
+    out.extend_from_slice(&crc32fast::hash(&base_bytes).to_le_bytes());
+    out.extend_from_slice(stream);
+    Ok(out)
+}
+
+/// Decoder limits on what header fields may ask for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct Limits {
+    /// Most base vertices.
+    pub max_base_vertices: u32,
+    /// Most base faces.
+    pub max_base_faces: u32,
+    /// Most samples of the decoded mesh.
+    pub max_samples: u64,
+}
+
+impl Limits {
+    /// Defaults: 4M base vertices and faces, 64M samples (a few GiB of memory).
+    pub const DEFAULT: Limits = Limits {
+        max_base_vertices: 1 << 22,
+        max_base_faces: 1 << 22,
+        max_samples: 1 << 26,
+    };
+
+    /// Sets the sample limit.
+    pub const fn with_max_samples(mut self, max: u64) -> Self {
+        self.max_samples = max;
+        self
+    }
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits::DEFAULT
+    }
+}
+
+fn take(data: &[u8], at: usize, len: usize) -> Result<&[u8]> {
+    data.get(at..at + len).ok_or(Error::Truncated {
+        needed: at + len,
+        available: data.len(),
+    })
+}
+
+fn limit(what: &'static str, value: u64, max: u64) -> Result<()> {
+    if value > max {
+        Err(Error::Limit { what, value, max })
+    } else {
+        Ok(())
+    }
+}
+
+/// Parses the header and base mesh of `data`, checking checksums and limits.
+pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
+    let magic = take(data, 0, 4)?;
+    if magic != MAGIC {
+        return Err(Error::NotQm);
+    }
+    let version = take(data, 4, 1)?[0];
+    if version != VERSION {
+        return Err(Error::UnsupportedVersion {
+            found: version,
+            supported: VERSION,
+        });
+    }
+    let header_len = u16::from_le_bytes(take(data, 5, 2)?.try_into().expect("2 bytes")) as usize;
+    let header_raw = take(data, 7, header_len)?;
+    let crc = u32::from_le_bytes(take(data, 7 + header_len, 4)?.try_into().expect("4 bytes"));
+    if crc != crc32fast::hash(&data[..7 + header_len]) {
+        return Err(Error::Checksum { section: "header" });
+    }
+    let header: Header = decode_exact(header_raw, "header")?;
+    let header_bytes = 7 + header_len + 4;
+    check_header(&header, limits)?;
+
+    let base_len =
+        u32::from_le_bytes(take(data, header_bytes, 4)?.try_into().expect("4 bytes")) as usize;
+    // A base mesh needs at least one byte per face corner; more is a lie.
+    let most = 16 * (header.base_faces as usize + header.base_vertices as usize) + 16;
+    if base_len > most {
+        return Err(Error::Malformed {
+            what: format!(
+                "base section length {base_len} for {} faces",
+                header.base_faces
+            ),
+        });
+    }
+    let base_raw = take(data, header_bytes + 4, base_len)?;
+    let crc = u32::from_le_bytes(
+        take(data, header_bytes + 4 + base_len, 4)?
+            .try_into()
+            .expect("4 bytes"),
+    );
+    if crc != crc32fast::hash(base_raw) {
+        return Err(Error::Checksum {
+            section: "base mesh",
+        });
+    }
+    let stored: StoredBase = decode_exact(base_raw, "base mesh")?;
+    if stored.faces.len() != header.base_faces as usize
+        || stored.deltas.len() != header.base_vertices as usize
+    {
+        return Err(Error::Malformed {
+            what: format!(
+                "base mesh holds {} faces and {} vertices, header says {} and {}",
+                stored.faces.len(),
+                stored.deltas.len(),
+                header.base_faces,
+                header.base_vertices
+            ),
+        });
+    }
+    let mut previous = [0i32; 3];
+    let values = stored
+        .deltas
+        .iter()
+        .map(|d| {
+            previous = std::array::from_fn(|k| previous[k].wrapping_add(d[k]));
+            previous
+        })
+        .collect();
+    let base_bytes = 4 + base_len + 4;
+    Ok(Container {
+        header,
+        base: BaseSection {
+            faces: stored.faces,
+            values,
+        },
+        stream: &data[header_bytes + base_bytes..],
+        header_bytes,
+        base_bytes,
+    })
+}
+
+fn decode_exact<T: serde::de::DeserializeOwned>(raw: &[u8], what: &str) -> Result<T> {
+    // The limit stops a corrupt length prefix from allocating more than the
+    // section could possibly hold.
+    let cfg = config().with_limit::<{ 1 << 30 }>();
+    let (value, used) =
+        bincode::serde::decode_from_slice(raw, cfg).map_err(|e| Error::Malformed {
+            what: format!("{what}: {e}"),
+        })?;
+    if used != raw.len() {
+        return Err(Error::Malformed {
+            what: format!("{what}: {} trailing bytes", raw.len() - used),
+        });
+    }
+    Ok(value)
+}
+
+fn check_header(h: &Header, limits: &Limits) -> Result<()> {
+    limit(
+        "base vertex count",
+        h.base_vertices as u64,
+        limits.max_base_vertices as u64,
+    )?;
+    limit(
+        "base face count",
+        h.base_faces as u64,
+        limits.max_base_faces as u64,
+    )?;
+    limit(
+        "subdivision level",
+        h.level as u64,
+        qm_lift::MAX_LEVEL as u64,
+    )?;
+    if !(qm_lift::MIN_BITS..=qm_lift::MAX_BITS).contains(&(h.bits as u32)) {
+        return Err(Error::Malformed {
+            what: format!("{} quantization bits", h.bits),
+        });
+    }
+    if qm_lift::UpdateRule::from_code(h.update).is_none() {
+        return Err(Error::Malformed {
+            what: format!("unknown update rule {}", h.update),
+        });
+    }
+    // Weighted planes cannot exceed the coefficient bits plus the weights.
+    let most_planes = h.bits as u32 + 8 + h.weight_bits as u32 * h.level as u32;
+    if h.weight_bits > 2 || h.planes as u32 > most_planes || h.passes > h.planes {
+        return Err(Error::Malformed {
+            what: format!("{} passes of {} planes", h.passes, h.planes),
+        });
+    }
+    if !(h.step.is_finite() && h.step > 0.0 && h.origin.iter().all(|x| x.is_finite())) {
+        return Err(Error::Malformed {
+            what: "quantization origin or step is not finite".into(),
+        });
+    }
+    // Upper bound of the sample count before anything is allocated.
+    let n = 1u64 << h.level;
+    let faces = h.base_faces as u64;
+    let samples = h.base_vertices as u64 + 4 * faces * (n - 1) + faces * (n - 1) * (n - 1);
+    limit("sample count", samples, limits.max_samples)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> (Header, BaseSection) {
+        let header = Header {
+            bits: 12,
+            level: 3,
+            update: 2,
+            weight_bits: 1,
+            origin: [0.5, -1.0, 2.0],
+            step: 0.001,
+            base_vertices: 4,
+            base_faces: 1,
+            planes: 14,
+            passes: 14,
+            flags: 0,
+        };
+        let base = BaseSection {
+            faces: vec![[0, 1, 2, 3]],
+            values: vec![[0, 0, 0], [4095, 0, 7], [4095, 4095, -3], [0, 4095, 9]],
+        };
+        (header, base)
+    }
+
+    #[test]
+    fn round_trip_and_stream_follows() {
+        let (header, base) = sample();
+        let bytes = write(&header, &base, b"stream!").unwrap();
+        let c = read(&bytes, &Limits::DEFAULT).unwrap();
+        assert_eq!(c.header, header);
+        assert_eq!(c.base, base);
+        assert_eq!(c.stream, b"stream!");
+        assert_eq!(c.header_bytes + c.base_bytes + 7, bytes.len());
+    }
+
+    #[test]
+    fn cuts_before_the_stream_name_the_bytes_needed() {
+        let (header, base) = sample();
+        let bytes = write(&header, &base, b"").unwrap();
+        for cut in 0..bytes.len() {
+            match read(&bytes[..cut], &Limits::DEFAULT) {
+                Err(Error::Truncated { needed, available }) => {
+                    assert_eq!(available, cut);
+                    assert!(needed > cut && needed <= bytes.len());
+                }
+                other => panic!("cut {cut}: {other:?}"),
+            }
+        }
+        assert!(read(&bytes, &Limits::DEFAULT).is_ok());
+    }
+
+    #[test]
+    fn corruption_is_caught_by_checksums() {
+        let (header, base) = sample();
+        let bytes = write(&header, &base, b"").unwrap();
+        for i in 7..bytes.len() {
+            let mut bad = bytes.clone();
+            bad[i] ^= 0x10;
+            assert!(
+                read(&bad, &Limits::DEFAULT).is_err(),
+                "flip at {i} went unnoticed"
+            );
+        }
+        let mut bad = bytes.clone();
+        bad[0] = b'X';
+        assert!(matches!(read(&bad, &Limits::DEFAULT), Err(Error::NotQm)));
+        let mut bad = bytes;
+        bad[4] = 9;
+        assert!(matches!(
+            read(&bad, &Limits::DEFAULT),
+            Err(Error::UnsupportedVersion { found: 9, .. })
+        ));
+    }
+
+    #[test]
+    fn absurd_sizes_are_refused() {
+        let (mut header, base) = sample();
+        header.level = 12;
+        header.base_faces = 1 << 20;
+        let bytes = write(&header, &base, b"").unwrap();
+        assert!(matches!(
+            read(&bytes, &Limits::DEFAULT),
+            Err(Error::Limit { .. })
+        ));
+    }
+}

@@ -1,0 +1,273 @@
+//! The `qm` command line: compress, decompress and inspect `.qm` files.
+//!
+//! Exit status: 0 on success, 1 on bad input (one line `error: ...` on
+//! stderr naming the file and the problem), 2 on bad usage.
+
+mod output;
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use qm::io::container;
+
+use output::{Failure, Progress, default_output, refuse_overwriting_input, write_atomic};
+
+#[derive(Parser)]
+#[command(
+    name = "qm",
+    version,
+    about = "Progressive mesh compression: any prefix of a .qm stream decodes"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Compress a mesh (OBJ, PLY, OFF, STL) into a .qm stream.
+    Compress {
+        /// Input mesh.
+        input: PathBuf,
+        /// Output file (default: the input with extension .qm).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Quantization bits per coordinate.
+        #[arg(long, default_value_t = qm::lift::DEFAULT_BITS, value_parser = clap::value_parser!(u32).range(qm::lift::MIN_BITS as i64..=qm::lift::MAX_BITS as i64))]
+        bits: u32,
+        /// Code at most this many bit-plane passes (default: all, lossless).
+        #[arg(long)]
+        passes: Option<u32>,
+        /// Cut the file to at most this many bytes.
+        #[arg(long)]
+        bytes: Option<usize>,
+        /// No progress or summary output.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Decompress a .qm stream (or a prefix of one) into a mesh.
+    Decompress {
+        /// Input .qm file.
+        input: PathBuf,
+        /// Output mesh, .obj or .ply (default: the input with extension .obj).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Use only the first N bytes, as if the rest never arrived.
+        #[arg(long)]
+        bytes: Option<usize>,
+        /// Decode at most this many passes.
+        #[arg(long)]
+        passes: Option<u32>,
+        /// Output this subdivision level (0 = base mesh; default: finest).
+        #[arg(long)]
+        level: Option<u32>,
+        /// No progress or summary output.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Describe a .qm file.
+    Info {
+        /// Input .qm file.
+        input: PathBuf,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Compress {
+            input,
+            output,
+            bits,
+            passes,
+            bytes,
+            quiet,
+        } => compress(&input, output, bits, passes, bytes, quiet),
+        Command::Decompress {
+            input,
+            output,
+            bytes,
+            passes,
+            level,
+            quiet,
+        } => decompress(&input, output, bytes, passes, level, quiet),
+        Command::Info { input, json } => info(&input, json),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(failure) => {
+            eprintln!("error: {failure}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn compress(
+    input: &Path,
+    output: Option<PathBuf>,
+    bits: u32,
+    passes: Option<u32>,
+    bytes: Option<usize>,
+    quiet: bool,
+) -> Result<(), Failure> {
+    let output = output.unwrap_or_else(|| default_output(input, "qm"));
+    refuse_overwriting_input(input, &output)?;
+    let progress = Progress::new(quiet);
+    progress.step("reading mesh");
+    let mesh = qm::read_mesh(input).map_err(|e| Failure::about(input, e))?;
+    progress.step("finding subdivision connectivity");
+    let prepared = qm::prepare(&mesh).map_err(|e| Failure::about(input, e))?;
+    progress.step("lifting and coding");
+    let options = qm::EncodeOptions::DEFAULT
+        .with_bits(bits)
+        .with_passes(passes)
+        .with_max_bytes(bytes);
+    let compressed =
+        qm::compress(&prepared.mesh, &options).map_err(|e| Failure::about(input, e))?;
+    progress.step("writing");
+    write_atomic(&output, &compressed.bytes)?;
+    progress.finish();
+    if !quiet {
+        let layout = prepared.mesh.layout();
+        let total = compressed.bytes.len();
+        eprintln!(
+            "{}: {} vertices, {} base quads x level {} -> {}: {} bytes (header {}, base {}, stream {}), {} passes",
+            input.display(),
+            layout.sample_count(),
+            layout.face_count(),
+            layout.level(),
+            output.display(),
+            total,
+            compressed.header_bytes,
+            compressed.base_bytes,
+            total - compressed.header_bytes - compressed.base_bytes,
+            compressed.pass_ends.len(),
+        );
+    }
+    Ok(())
+}
+
+fn decompress(
+    input: &Path,
+    output: Option<PathBuf>,
+    bytes: Option<usize>,
+    passes: Option<u32>,
+    level: Option<u32>,
+    quiet: bool,
+) -> Result<(), Failure> {
+    let output = output.unwrap_or_else(|| default_output(input, "obj"));
+    refuse_overwriting_input(input, &output)?;
+    match qm::io::mesh::Format::from_path(&output) {
+        Some(qm::io::mesh::Format::Obj | qm::io::mesh::Format::Ply) => {}
+        _ => {
+            return Err(Failure::new(format!(
+                "{}: output must be .obj or .ply",
+                output.display()
+            )));
+        }
+    }
+    let progress = Progress::new(quiet);
+    progress.step("reading stream");
+    let data = std::fs::read(input).map_err(|e| Failure::about(input, e))?;
+    progress.step("decoding");
+    let options = qm::DecodeOptions::default()
+        .with_max_bytes(bytes)
+        .with_passes(passes)
+        .with_level(level);
+    let decoded = qm::decompress(&data, &options).map_err(|e| Failure::about(input, e))?;
+    let mesh = decoded.to_polymesh();
+    progress.step("writing mesh");
+    qm::write_mesh(&output, &mesh).map_err(|e| Failure::about(&output, e))?;
+    progress.finish();
+    if !quiet {
+        let used = decoded.header_bytes + decoded.base_bytes + decoded.stream_bytes;
+        eprintln!(
+            "{}: {} of {} bytes, {} of {} passes -> {}: level {}, {} vertices, {} quads",
+            input.display(),
+            used,
+            data.len(),
+            decoded.passes,
+            decoded.header.passes,
+            output.display(),
+            decoded.level,
+            mesh.positions.len(),
+            mesh.face_count(),
+        );
+    }
+    Ok(())
+}
+
+/// What `qm info` reports.
+#[derive(serde::Serialize)]
+struct Info {
+    file: String,
+    total_bytes: usize,
+    header_bytes: usize,
+    base_bytes: usize,
+    stream_bytes: usize,
+    version: u8,
+    bits: u8,
+    level: u8,
+    passes: u8,
+    planes: u8,
+    update: String,
+    weight_bits: u8,
+    base_vertices: u32,
+    base_faces: u32,
+    vertices: u64,
+    faces: u64,
+    bbox_min: [f64; 3],
+    step: f64,
+}
+
+fn info(input: &Path, json: bool) -> Result<(), Failure> {
+    let data = std::fs::read(input).map_err(|e| Failure::about(input, e))?;
+    let c = container::read(&data, &qm::Limits::DEFAULT).map_err(|e| Failure::about(input, e))?;
+    let h = &c.header;
+    let base = qm::lift::BaseMesh::new(h.base_vertices, c.base.faces.clone())
+        .map_err(|e| Failure::about(input, qm::io::Error::from(e)))?;
+    let n = 1u64 << h.level;
+    let faces = h.base_faces as u64;
+    let update = qm::UpdateRule::from_code(h.update).map_or("unknown".into(), |u| format!("{u:?}"));
+    let info = Info {
+        file: input.display().to_string(),
+        total_bytes: data.len(),
+        header_bytes: c.header_bytes,
+        base_bytes: c.base_bytes,
+        stream_bytes: c.stream.len(),
+        version: container::VERSION,
+        bits: h.bits,
+        level: h.level,
+        passes: h.passes,
+        planes: h.planes,
+        update,
+        weight_bits: h.weight_bits,
+        base_vertices: h.base_vertices,
+        base_faces: h.base_faces,
+        vertices: h.base_vertices as u64
+            + base.edges().len() as u64 * (n - 1)
+            + faces * (n - 1) * (n - 1),
+        faces: faces * n * n,
+        bbox_min: h.origin,
+        step: h.step,
+    };
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&info).expect("plain data serializes")
+        );
+    } else {
+        let value = serde_json::to_value(&info).expect("plain data serializes");
+        for (key, v) in value.as_object().expect("a struct is an object") {
+            println!(
+                "{key:>14}: {}",
+                v.as_str().map_or(v.to_string(), str::to_string)
+            );
+        }
+    }
+    Ok(())
+}

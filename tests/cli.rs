@@ -1,0 +1,178 @@
+//! The `qm` command line as a user runs it.
+
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use common::{QUAD_MODELS, asset};
+
+fn qm(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_qm"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("qm runs")
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// One line `error: ...` naming the file, and exit status 1.
+fn assert_fails_cleanly(out: &Output, file: &str, problem: &str) {
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(out));
+    let err = stderr(out);
+    assert_eq!(err.lines().count(), 1, "one line: {err}");
+    assert!(err.starts_with("error: "), "{err}");
+    assert!(err.contains(file), "names {file}: {err}");
+    assert!(err.contains(problem), "says {problem}: {err}");
+}
+
+#[test]
+fn compress_decompress_round_trip_every_quad_model() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in QUAD_MODELS {
+        let src = asset(&format!("quad/{name}"));
+        std::fs::copy(&src, dir.path().join(name)).unwrap();
+        let out = qm(&["compress", name, "--quiet"], dir.path());
+        assert!(out.status.success(), "{name}: {}", stderr(&out));
+        let packed = Path::new(name).with_extension("qm");
+        let out = qm(
+            &[
+                "decompress",
+                packed.to_str().unwrap(),
+                "-o",
+                "back.ply",
+                "--quiet",
+            ],
+            dir.path(),
+        );
+        assert!(out.status.success(), "{name}: {}", stderr(&out));
+        // The decoded mesh has the input's vertices and quads, and each of its
+        // vertices is an input vertex up to quantization.
+        let input = qm::read_mesh(&dir.path().join(name)).unwrap();
+        let back = qm::read_mesh(&dir.path().join("back.ply")).unwrap();
+        assert_eq!(back.positions.len(), input.positions.len(), "{name}");
+        assert_eq!(back.face_count(), input.face_count(), "{name}");
+        assert!(back.all_faces_have(4));
+        let (lo, hi) = qm::lift::bounding_box(&input.positions);
+        let step = (hi - lo).max_element() / 65535.0;
+        let mut sorted_in: Vec<[i64; 3]> = input
+            .positions
+            .iter()
+            .map(|p| ((*p - lo) / step).round().as_i64vec3().to_array())
+            .collect();
+        let mut sorted_out: Vec<[i64; 3]> = back
+            .positions
+            .iter()
+            .map(|p| ((*p - lo) / step).round().as_i64vec3().to_array())
+            .collect();
+        sorted_in.sort();
+        sorted_out.sort();
+        assert_eq!(sorted_in, sorted_out, "{name}: same quantized vertices");
+    }
+}
+
+#[test]
+fn info_json_reports_the_layout() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(asset("quad/cc_cube.obj"), dir.path().join("cube.obj")).unwrap();
+    assert!(
+        qm(
+            &[
+                "compress", "cube.obj", "-o", "cube.qm", "--quiet", "--bits", "12"
+            ],
+            dir.path()
+        )
+        .status
+        .success()
+    );
+    let out = qm(&["info", "cube.qm", "--json"], dir.path());
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let size = std::fs::metadata(dir.path().join("cube.qm")).unwrap().len();
+    for key in ["header_bytes", "base_bytes", "stream_bytes"] {
+        assert!(v[key].as_u64().unwrap() > 0, "{key}");
+    }
+    let sum: u64 = ["header_bytes", "base_bytes", "stream_bytes"]
+        .iter()
+        .map(|k| v[k].as_u64().unwrap())
+        .sum();
+    assert_eq!(sum, size);
+    assert_eq!(v["bits"], 12);
+    assert_eq!(v["level"], 5);
+    assert_eq!(v["base_vertices"], 8);
+    assert_eq!(v["base_faces"], 6);
+    assert_eq!(v["vertices"], 6146);
+    assert_eq!(v["faces"], 6144);
+    assert!(v["passes"].as_u64().unwrap() > 10);
+}
+
+#[test]
+fn truncated_files_decode_and_cuts_in_the_header_say_how_much_is_needed() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(asset("quad/torus_4x6_l4.obj"), dir.path().join("t.obj")).unwrap();
+    assert!(
+        qm(
+            &["compress", "t.obj", "--quiet", "--bytes", "3000"],
+            dir.path()
+        )
+        .status
+        .success()
+    );
+    assert_eq!(
+        std::fs::metadata(dir.path().join("t.qm")).unwrap().len(),
+        3000
+    );
+    let out = qm(
+        &["decompress", "t.qm", "--bytes", "1500", "--quiet"],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = qm(
+        &["decompress", "t.qm", "--bytes", "20", "-o", "cut.obj"],
+        dir.path(),
+    );
+    assert_fails_cleanly(&out, "t.qm", "needed");
+    assert!(!dir.path().join("cut.obj").exists(), "no output on failure");
+}
+
+#[test]
+fn bad_input_fails_with_one_line_and_exit_1() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("garbage.qm"), b"this is not a qm file at all").unwrap();
+    assert_fails_cleanly(
+        &qm(&["decompress", "garbage.qm", "-o", "x.obj"], d),
+        "garbage.qm",
+        "not a .qm",
+    );
+    assert!(!d.join("x.obj").exists());
+    assert_fails_cleanly(&qm(&["info", "missing.qm"], d), "missing.qm", "");
+    std::fs::write(d.join("tri.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    assert_fails_cleanly(&qm(&["compress", "tri.obj"], d), "tri.obj", "quad");
+    assert!(!d.join("tri.qm").exists());
+    std::fs::write(d.join("bad.obj"), "v 0 0 0\nf 1 2 7\n").unwrap();
+    assert_fails_cleanly(&qm(&["compress", "bad.obj"], d), "bad.obj", "line 2");
+    // Never overwrite the input.
+    std::fs::copy(asset("quad/holed_grid_l4.obj"), d.join("g.obj")).unwrap();
+    assert_fails_cleanly(
+        &qm(&["compress", "g.obj", "-o", "g.obj"], d),
+        "g.obj",
+        "overwrite",
+    );
+}
+
+#[test]
+fn bad_usage_exits_2() {
+    let dir = tempfile::tempdir().unwrap();
+    assert_eq!(qm(&["compress"], dir.path()).status.code(), Some(2));
+    assert_eq!(qm(&["frobnicate"], dir.path()).status.code(), Some(2));
+    assert_eq!(
+        qm(&["compress", "x.obj", "--bits", "99"], dir.path())
+            .status
+            .code(),
+        Some(2)
+    );
+}
