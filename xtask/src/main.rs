@@ -1,1 +1,104 @@
-fn main() {}
+//! Experiments behind the README's figures: `cargo xtask <task>`.
+//!
+//! - `pass-table [MESH ...]`: for each mesh (default: the bundled quad
+//!   meshes), compress it losslessly and decode 2, 4, ..., 12 passes and the
+//!   whole stream; print a Markdown table of file sizes and PSNR. PSNR is
+//!   `20 log10(bbox diagonal / RMS)` with RMS the vertex-to-vertex distance
+//!   between corresponding samples and input vertices (exact correspondence
+//!   exists for meshes taken as they are).
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use qm::{DecodeOptions, EncodeOptions};
+
+const PASSES: [u32; 6] = [2, 4, 6, 8, 10, 12];
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let result = match args.first().map(String::as_str) {
+        Some("pass-table") => pass_table(&args[1..]),
+        _ => Err("usage: cargo xtask pass-table [MESH ...]".to_string()),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn pass_table(args: &[String]) -> Result<(), String> {
+    let files: Vec<PathBuf> = if args.is_empty() {
+        [
+            "cc_cube.obj",
+            "cc_dodecahedron.obj",
+            "torus_4x6_l4.obj",
+            "holed_grid_l4.obj",
+        ]
+        .iter()
+        .map(|n| workspace().join("assets/quad").join(n))
+        .collect()
+    } else {
+        args.iter().map(PathBuf::from).collect()
+    };
+    let head: Vec<String> = PASSES.iter().map(|p| format!("{p} passes")).collect();
+    println!(
+        "| model | input | base | {} | all (lossless) |",
+        head.join(" | ")
+    );
+    println!("|---|---|---|{}---|", "---|".repeat(PASSES.len()));
+    for file in files {
+        let name = file
+            .file_name()
+            .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+        let input = qm::read_mesh(&file).map_err(|e| e.to_string())?;
+        let prepared = qm::prepare(&input).map_err(|e| format!("{}: {e}", file.display()))?;
+        let original: Vec<_> = prepared
+            .source
+            .iter()
+            .map(|&v| input.positions[v as usize])
+            .collect();
+        let (lo, hi) = qm::lift::bounding_box(&original);
+        let diagonal = (hi - lo).length();
+        let compressed =
+            qm::compress(&prepared.mesh, &EncodeOptions::DEFAULT).map_err(|e| e.to_string())?;
+        let input_bytes = std::fs::metadata(&file).map_err(|e| e.to_string())?.len();
+        let psnr = |options: DecodeOptions| -> Result<f64, String> {
+            let decoded = qm::decompress(&compressed.bytes, &options).map_err(|e| e.to_string())?;
+            let sum: f64 = original
+                .iter()
+                .enumerate()
+                .map(|(s, p)| decoded.position(s).distance_squared(*p))
+                .sum();
+            Ok(20.0 * (diagonal / (sum / original.len() as f64).sqrt()).log10())
+        };
+        let mut cells = Vec::new();
+        for p in PASSES {
+            let bytes = compressed
+                .pass_ends
+                .get(p as usize - 1)
+                .copied()
+                .unwrap_or(compressed.bytes.len());
+            let db = psnr(DecodeOptions::default().with_passes(Some(p)))?;
+            cells.push(format!("{} B, {db:.1} dB", bytes));
+        }
+        let db = psnr(DecodeOptions::default())?;
+        println!(
+            "| {name} | {} KB, {} vertices | {} B ({} quads, level {}) | {} | {} B, {db:.1} dB |",
+            input_bytes / 1024,
+            original.len(),
+            compressed.header_bytes + compressed.base_bytes,
+            prepared.mesh.layout().face_count(),
+            prepared.level,
+            cells.join(" | "),
+            compressed.bytes.len(),
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,3 @@
+//! Hostile input: the decoder and the readers survive anything.
+
+mod common;
