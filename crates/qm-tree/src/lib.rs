@@ -61,8 +61,6 @@ impl ZeroTree {
         let base = layout.base();
         let mut kids: Vec<[u32; 4]> = vec![[0; 4]; samples];
         let mut kid_count = vec![0u8; samples];
-        let mut level_of = vec![0u8; samples];
-        let mut kind_of = vec![Kind::Edge; samples];
         let mut add = |parent: u32, child: u32| {
             let c = &mut kid_count[parent as usize];
             kids[parent as usize][*c as usize] = child;
@@ -76,28 +74,13 @@ impl ZeroTree {
                 let s = 2 * h;
                 let m = layout.n() / s;
                 let at = |i: usize, j: usize| layout.sample(f, i, j);
-                // Tag this level's odd samples.
-                for b in 0..=2 * m {
-                    for a in 0..=2 * m {
-                        if a % 2 == 0 && b % 2 == 0 {
-                            continue;
-                        }
-                        let id = at(a * h, b * h) as usize;
-                        level_of[id] = l as u8;
-                        kind_of[id] = if a % 2 == 1 && b % 2 == 1 {
-                            Kind::Face
-                        } else {
-                            Kind::Edge
-                        };
-                    }
-                }
                 if l == 1 {
                     let c = layout.n() / 2;
-                    roots.push(at(c, c));
+                    roots.push((at(c, c), Kind::Face));
                     for k in 0..4u8 {
                         if owns(k) {
                             let (i, j) = qm_lift::side_point(layout.n() as i32, k, c as i32, 0);
-                            roots.push(at(i as usize, j as usize));
+                            roots.push((at(i as usize, j as usize), Kind::Edge));
                         }
                     }
                 }
@@ -159,20 +142,24 @@ impl ZeroTree {
             level_starts: vec![0],
             max_level: big_l,
         };
-        for &r in &roots {
+        // Children are one level finer than their parent and of its kind.
+        for &(r, kind) in &roots {
             tree.samples.push(r);
             tree.parents.push(NO_PARENT);
+            tree.levels.push(1);
+            tree.kinds.push(kind);
         }
         let mut next = 0;
         while next < tree.samples.len() {
             let sample = tree.samples[next] as usize;
-            tree.levels.push(level_of[sample]);
-            tree.kinds.push(kind_of[sample]);
+            let (level, kind) = (tree.levels[next], tree.kinds[next]);
             tree.first_child.push(tree.samples.len() as u32);
             tree.child_counts.push(kid_count[sample]);
             for &child in &kids[sample][..kid_count[sample] as usize] {
                 tree.samples.push(child);
                 tree.parents.push(next as u32);
+                tree.levels.push(level + 1);
+                tree.kinds.push(kind);
             }
             next += 1;
         }
@@ -291,6 +278,29 @@ mod tests {
             seen[v..].iter().all(|&c| c == 1),
             "each coefficient exactly once"
         );
+        // Level and kind from grid coordinates: a level-l point has spacing
+        // h = 2^(L-l), and a face point has both coordinates odd multiples of h.
+        let big_l = layout.level();
+        for f in 0..layout.face_count() {
+            for j in 0..=layout.n() {
+                for i in 0..=layout.n() {
+                    let s = layout.sample(f, i, j) as usize;
+                    let Some(k) = tree.samples().iter().position(|&x| x as usize == s) else {
+                        continue;
+                    };
+                    let tz = |x: usize| if x == 0 { big_l } else { x.trailing_zeros() };
+                    let level = big_l - tz(i).min(tz(j));
+                    assert_eq!(tree.levels()[k] as u32, level, "sample {s}");
+                    let odd = |x: usize| (x >> (big_l - level)) & 1 == 1;
+                    let kind = if odd(i) && odd(j) {
+                        Kind::Face
+                    } else {
+                        Kind::Edge
+                    };
+                    assert_eq!(tree.kinds()[k], kind, "sample {s}");
+                }
+            }
+        }
         for k in 0..tree.len() {
             for c in tree.children(k) {
                 assert_eq!(tree.parents()[c] as usize, k);
