@@ -305,6 +305,11 @@ fn check_header(h: &Header, limits: &Limits) -> Result<()> {
             what: format!("{} passes of {} planes", h.passes, h.planes),
         });
     }
+    if h.flags != 0 {
+        return Err(Error::Malformed {
+            what: format!("unknown header flags {:#x}", h.flags),
+        });
+    }
     if !(h.step.is_finite() && h.step > 0.0 && h.origin.iter().all(|x| x.is_finite())) {
         return Err(Error::Malformed {
             what: "quantization origin or step is not finite".into(),

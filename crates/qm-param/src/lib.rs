@@ -7,14 +7,25 @@
 //! [`SemiRegularMesh`], plus which input vertex each sample is ([`Detected`]).
 //! Meshes without that connectivity need remeshing.
 //!
+//! [`distance`] measures how far two surfaces are apart (RMS, mean and
+//! Hausdorff distance and PSNR, as Metro does), to judge a remeshed or
+//! decoded mesh against its input.
+//!
 //! This crate reads meshes through `qm-io`'s [`PolyMesh`] and builds
 //! `qm-lift`'s types; it knows nothing of trees, coding or files.
 
+pub mod clean;
+pub mod distance;
 mod error;
 mod quads;
+pub mod remesh;
 mod subdivision;
+mod trimesh;
 
+pub use distance::{DistanceOptions, DistanceReport, OneSided, Side, distance};
 pub use error::{Error, Result};
 pub use qm_io::PolyMesh;
 pub use qm_lift::SemiRegularMesh;
+pub use remesh::{RemeshOptions, Remeshed, remesh};
 pub use subdivision::{Detected, detect_subdivision};
+pub use trimesh::{TriMesh, triangle_area};

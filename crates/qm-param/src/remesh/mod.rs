@@ -1,0 +1,239 @@
+//! Remeshing any triangle mesh into a semi-regular quad mesh.
+//!
+//! Per connected component, after clean-up ([`crate::clean`]):
+//! 1. cut it open into a disk ([`cut`]): boundaries, `2g` loops for genus `g`
+//!    and paths joining them, or one long path on a closed sphere;
+//! 2. map the disk onto the unit square ([`square`]): boundary by arc length
+//!    with the two sides of every cut given equal lengths, interior by
+//!    mean-value coordinates, then stretch-reweighted;
+//! 3. add cuts from the points of highest stretch to the cut (Gu, Gortler
+//!    and Hoppe's geometry images do the same) while that lowers the stretch;
+//! 4. sample the square on a `(K 2^L + 1)^2` grid, `K x K` base quads, and
+//!    glue the sides of each cut so that seam mates are one sample.
+//!
+//! Holes stay holes: real boundaries are laid on the square's perimeter
+//! unglued, so no surface is added.
+
+mod cut;
+mod resample;
+mod square;
+
+use qm_lift::glam::DVec3;
+use qm_lift::{BaseMesh, Layout, SemiRegularMesh};
+
+use crate::clean::{CleanReport, clean};
+use crate::{Error, PolyMesh, Result, TriMesh};
+
+/// Remesher settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct RemeshOptions {
+    /// Subdivision level `L`; `None` picks it from [`Self::samples_per_vertex`].
+    pub level: Option<u32>,
+    /// Samples to aim for per input vertex when choosing the level.
+    pub samples_per_vertex: f64,
+    /// Stretch-reweighting iterations of the parameterization.
+    pub stretch_iterations: usize,
+    /// Most extra cuts towards points of high stretch, per component.
+    pub extra_cuts: usize,
+}
+
+impl RemeshOptions {
+    /// Defaults: level for about 16 samples per input vertex, 7 stretch
+    /// iterations, up to 2 extra cuts per component.
+    pub const DEFAULT: RemeshOptions = RemeshOptions {
+        level: None,
+        samples_per_vertex: 16.0,
+        stretch_iterations: 7,
+        extra_cuts: 2,
+    };
+
+    /// Sets the level.
+    pub const fn with_level(mut self, level: Option<u32>) -> Self {
+        self.level = level;
+        self
+    }
+
+    /// Sets the sample density target.
+    pub const fn with_samples_per_vertex(mut self, ratio: f64) -> Self {
+        self.samples_per_vertex = ratio;
+        self
+    }
+
+    /// Sets the number of extra cuts.
+    pub const fn with_extra_cuts(mut self, cuts: usize) -> Self {
+        self.extra_cuts = cuts;
+        self
+    }
+
+    /// Sets the stretch iterations.
+    pub const fn with_stretch_iterations(mut self, iterations: usize) -> Self {
+        self.stretch_iterations = iterations;
+        self
+    }
+}
+
+impl Default for RemeshOptions {
+    fn default() -> Self {
+        RemeshOptions::DEFAULT
+    }
+}
+
+/// What the remesher did to one component.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ComponentReport {
+    pub vertices: usize,
+    pub triangles: usize,
+    pub base_quads: usize,
+    pub extra_cuts: usize,
+    pub stretch: f64,
+    pub flipped: usize,
+    pub uncovered: usize,
+}
+
+/// A remeshed mesh.
+#[derive(Clone, Debug)]
+pub struct Remeshed {
+    /// The semi-regular mesh.
+    pub mesh: SemiRegularMesh,
+    /// The clean-up summary.
+    pub clean: CleanReport,
+    /// Per component.
+    pub components: Vec<ComponentReport>,
+}
+
+/// Remeshes `mesh` into a semi-regular quad mesh.
+pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
+    let cleaned = clean(mesh)?;
+    let input_vertices: usize = cleaned.components.iter().map(|c| c.positions.len()).sum();
+    let total_area: f64 = cleaned.components.iter().map(TriMesh::area).sum();
+    if cleaned.components.is_empty() || total_area <= 0.0 {
+        return Err(Error::Remesh(
+            "nothing with area left after clean-up".into(),
+        ));
+    }
+    // Parameterize each component with the fewest base quads it needs.
+    let mut charts = Vec::new();
+    for c in &cleaned.components {
+        charts.push(chart(c, 3, options)?);
+    }
+    // One level for all; base quads per component by area share.
+    let target = options.samples_per_vertex * input_vertices as f64;
+    let level = match options.level {
+        Some(l) => l,
+        None => {
+            let side: f64 = charts
+                .iter()
+                .map(|(_, m, _)| (m.k * m.k) as f64)
+                .sum::<f64>()
+                .sqrt();
+            ((target.sqrt() / side).log2().round().max(1.0) as u32).min(qm_lift::MAX_LEVEL)
+        }
+    };
+    if options.level.is_none() {
+        for (c, component) in cleaned.components.iter().enumerate() {
+            let share = component.area() / total_area;
+            let want = ((target * share).sqrt() / (1u64 << level) as f64).round() as usize;
+            if want > charts[c].1.k {
+                charts[c] = chart(component, want, options)?;
+            }
+        }
+    }
+    // Sample and stitch every component, then join them.
+    let mut faces = Vec::new();
+    let mut grids = Vec::new();
+    let mut positions: Vec<DVec3> = Vec::new();
+    let mut base_vertices = 0u32;
+    let mut reports = Vec::new();
+    for ((disk, map, cuts), component) in charts.iter().zip(&cleaned.components) {
+        let patch = resample::resample(disk, map, level);
+        let (bo, so) = (base_vertices, positions.len() as u32);
+        faces.extend(patch.faces.iter().map(|f| f.map(|v| v + bo)));
+        grids.extend(patch.grids.iter().map(|&s| s + so));
+        positions.extend_from_slice(&patch.positions);
+        base_vertices += patch.base_vertices;
+        reports.push(ComponentReport {
+            vertices: component.positions.len(),
+            triangles: component.triangles.len(),
+            base_quads: map.k * map.k,
+            extra_cuts: *cuts,
+            stretch: map.stretch,
+            flipped: map.flipped,
+            uncovered: patch.uncovered,
+        });
+    }
+    let base = BaseMesh::new(base_vertices, faces)
+        .map_err(|e| Error::Remesh(format!("the glued base mesh is invalid: {e}")))?;
+    let layout = Layout::new(base, level)?;
+    let (mesh, _) = SemiRegularMesh::from_face_grids(layout, &grids, &positions)?;
+    Ok(Remeshed {
+        mesh,
+        clean: cleaned.report,
+        components: reports,
+    })
+}
+
+/// Cuts and parameterizes one component with at least `k_min` base quads a
+/// side, adding cuts towards high stretch while they help.
+fn chart(
+    mesh: &TriMesh,
+    k_min: usize,
+    options: &RemeshOptions,
+) -> Result<(cut::Disk, square::SquareMap, usize)> {
+    let topo = cut::Topology::new(mesh);
+    let mut extra: Vec<Vec<u32>> = Vec::new();
+    let mut disk = cut::cut_to_disk(mesh, &topo, &extra);
+    let mut map = square::parameterize(&disk, k_min, options.stretch_iterations)?;
+    for _ in 0..options.extra_cuts {
+        // The vertex of highest stretch, joined to the nearest cut vertex.
+        let Some(worst) = (0..disk.positions.len())
+            .max_by(|&a, &b| map.vertex_stretch[a].total_cmp(&map.vertex_stretch[b]))
+        else {
+            break;
+        };
+        let from = disk.origin[worst];
+        let (dist, pred) = cut::shortest_paths(mesh, &topo, from);
+        let Some(&to) = disk
+            .boundary
+            .iter()
+            .map(|&b| disk.origin[b as usize])
+            .collect::<Vec<_>>()
+            .iter()
+            .min_by(|&&a, &&b| dist[a as usize].total_cmp(&dist[b as usize]))
+        else {
+            break;
+        };
+        if to == from || !dist[to as usize].is_finite() {
+            break;
+        }
+        let path = cut::path_to(&pred, to);
+        let mut trial_extra = extra.clone();
+        trial_extra.push(path);
+        let trial_disk = cut::cut_to_disk(mesh, &topo, &trial_extra);
+        let trial = square::parameterize(&trial_disk, k_min, options.stretch_iterations)?;
+        if (trial.flipped, trial.stretch) >= (map.flipped, map.stretch) {
+            break;
+        }
+        extra = trial_extra;
+        disk = trial_disk;
+        map = trial;
+    }
+    // Gluing a small square can make two base edges one (both ends glued):
+    // grow the square until the glued base mesh is valid.
+    let mut k = map.k;
+    loop {
+        let probe = resample::resample(&disk, &map, 0);
+        if BaseMesh::new(probe.base_vertices, probe.faces).is_ok() {
+            break;
+        }
+        k += 1;
+        if k > 4 * map.k.max(8) {
+            return Err(Error::Remesh(
+                "could not glue the cut into a valid base mesh".into(),
+            ));
+        }
+        map = square::parameterize(&disk, k, options.stretch_iterations)?;
+    }
+    let cuts = extra.len();
+    Ok((disk, map, cuts))
+}

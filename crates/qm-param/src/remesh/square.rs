@@ -1,0 +1,419 @@
+//! Parameterizing a disk over the unit square.
+//!
+//! The disk's boundary loop is split into *segments* at its nodes (cut-graph
+//! branch points and ends, and where a cut meets a real boundary). The square's
+//! perimeter is divided into `4K` base edges (`K` per side) and each segment
+//! gets a whole number of them, in proportion to its length; the two sides of
+//! a cut get the same number, so that gluing them matches sample to sample.
+//! Boundary vertices sit on the perimeter by arc length within their segment.
+//!
+//! The interior follows Floater's mean-value coordinates (each vertex the
+//! weighted mean of its neighbours, weights `(tan(a/2) + tan(b/2)) / |e|`),
+//! one sparse linear solve for `u` and `v` (faer's sparse LU). Positive weights
+//! and a convex boundary guarantee an embedding (Tutte, Floater). The weights
+//! are then divided by each neighbour's L2 stretch and the system solved again
+//! (Yoshizawa, Belyaev and Seidel 2004), which spreads the samples more evenly
+//! over the surface: the best of the iterations is kept.
+
+use faer::Mat;
+use faer::prelude::*;
+use faer::sparse::{SparseColMat, Triplet};
+use qm_lift::glam::{DVec2, DVec3};
+
+use super::cut::Disk;
+use crate::{Error, Result};
+
+/// A run of the boundary loop between two nodes.
+#[derive(Clone, Debug)]
+pub struct Segment {
+    /// First boundary index.
+    pub start: usize,
+    /// Number of boundary edges.
+    pub len: usize,
+    /// The other side of the same cut, or `None` for a real boundary.
+    pub mate: Option<usize>,
+    /// Base edges along the perimeter.
+    pub count: usize,
+    /// Perimeter position (in base edges from the lower left corner,
+    /// counter-clockwise) where the segment starts.
+    pub at: usize,
+}
+
+/// A disk laid out over the square.
+pub struct SquareMap {
+    /// Base quads per side.
+    pub k: usize,
+    /// Parameter coordinates in `[0, 1]^2` of every disk vertex.
+    pub uv: Vec<DVec2>,
+    /// Boundary segments.
+    pub segments: Vec<Segment>,
+    /// Area-weighted L2 stretch of the map (1 = isometric up to scale).
+    pub stretch: f64,
+    /// Per disk vertex L2 stretch.
+    pub vertex_stretch: Vec<f64>,
+    /// Triangles with non-positive parameter area.
+    pub flipped: usize,
+}
+
+/// Point on the unit square's perimeter at `p` base edges of `4k`.
+pub fn perimeter_point(p: f64, k: usize) -> DVec2 {
+    let k = k as f64;
+    let p = p.rem_euclid(4.0 * k);
+    let (side, t) = ((p / k).floor(), (p % k) / k);
+    match side as u32 {
+        0 => DVec2::new(t, 0.0),
+        1 => DVec2::new(1.0, t),
+        2 => DVec2::new(1.0 - t, 1.0),
+        _ => DVec2::new(0.0, 1.0 - t),
+    }
+}
+
+/// Splits the boundary into segments and finds mates.
+pub fn segments(disk: &Disk) -> Vec<Segment> {
+    let n = disk.boundary.len();
+    // Degree of each mesh vertex in the cut graph (cuts and real boundaries).
+    let mut degree: std::collections::HashMap<u32, u32> = std::collections::HashMap::new();
+    let mut distinct = std::collections::HashSet::new();
+    for (k, &(e, _)) in disk.boundary_edges.iter().enumerate() {
+        if distinct.insert(e) {
+            for v in [disk.boundary[k], disk.boundary[(k + 1) % n]] {
+                *degree.entry(disk.origin[v as usize]).or_default() += 1;
+            }
+        }
+    }
+    let is_node = |k: usize| {
+        let v = disk.origin[disk.boundary[k] as usize];
+        let before = disk.boundary_edges[(k + n - 1) % n].1;
+        let after = disk.boundary_edges[k].1;
+        degree.get(&v).copied().unwrap_or(0) != 2 || before != after
+    };
+    let nodes: Vec<usize> = (0..n).filter(|&k| is_node(k)).collect();
+    let nodes = if nodes.is_empty() { vec![0] } else { nodes };
+    let mut segs: Vec<Segment> = nodes
+        .iter()
+        .enumerate()
+        .map(|(i, &start)| {
+            let end = nodes[(i + 1) % nodes.len()];
+            let len = (end + n - start - 1) % n + 1;
+            Segment {
+                start,
+                len,
+                mate: None,
+                count: 0,
+                at: 0,
+            }
+        })
+        .collect();
+    // Mates: the segment holding the other occurrence of a segment's first edge.
+    let mut seg_of = vec![0usize; n];
+    for (s, seg) in segs.iter().enumerate() {
+        for j in 0..seg.len {
+            seg_of[(seg.start + j) % n] = s;
+        }
+    }
+    let mut first: std::collections::HashMap<u32, usize> = std::collections::HashMap::new();
+    for (k, &(e, is_cut)) in disk.boundary_edges.iter().enumerate() {
+        if !is_cut {
+            continue;
+        }
+        match first.get(&e) {
+            None => {
+                first.insert(e, k);
+            }
+            Some(&other) => {
+                let (a, b) = (seg_of[other], seg_of[k]);
+                segs[a].mate = Some(b);
+                segs[b].mate = Some(a);
+            }
+        }
+    }
+    segs
+}
+
+/// Lays `segments` out on a perimeter of `4k` base edges. Returns `false`
+/// when `k` is too small for them.
+pub fn allocate(segs: &mut [Segment], lengths: &[f64], k: usize, leaves: &[usize]) -> bool {
+    const MIN: usize = 3;
+    let units = 4 * k;
+    // Groups: a cut's two sides share one count.
+    let groups: Vec<usize> = (0..segs.len())
+        .filter(|&s| segs[s].mate.is_none_or(|m| m > s))
+        .collect();
+    let weight = |s: usize| if segs[s].mate.is_some() { 2 } else { 1 };
+    let total: f64 = groups.iter().map(|&s| weight(s) as f64 * lengths[s]).sum();
+    let mut count: Vec<usize> = groups
+        .iter()
+        .map(|&s| ((lengths[s] / total.max(1e-300) * units as f64).floor() as usize).max(MIN))
+        .collect();
+    let used = |count: &[usize]| {
+        groups
+            .iter()
+            .zip(count)
+            .map(|(&s, &c)| weight(s) * c)
+            .sum::<usize>()
+    };
+    if used(&count) > units {
+        return false;
+    }
+    // Hand out what is left to the groups furthest below their share.
+    while used(&count) < units {
+        let left = units - used(&count);
+        let best = (0..groups.len())
+            .filter(|&g| weight(groups[g]) <= left)
+            .max_by(|&a, &b| {
+                let deficit =
+                    |g: usize| lengths[groups[g]] / total * units as f64 - count[g] as f64;
+                deficit(a).total_cmp(&deficit(b))
+            });
+        match best {
+            Some(g) => count[g] += 1,
+            None => return false,
+        }
+    }
+    for (g, &s) in groups.iter().enumerate() {
+        segs[s].count = count[g];
+        if let Some(m) = segs[s].mate {
+            segs[m].count = count[g];
+        }
+    }
+    // Rotate so that no leaf of the cut graph lands on a square corner,
+    // where one base quad would have two of its sides glued together.
+    let mut starts = Vec::with_capacity(segs.len());
+    let mut p = 0;
+    for s in segs.iter() {
+        starts.push(p);
+        p += s.count;
+    }
+    let shift = (0..units).find(|&r| leaves.iter().all(|&s| (starts[s] + r) % k != 0));
+    let Some(shift) = shift else { return false };
+    for (s, seg) in segs.iter_mut().enumerate() {
+        seg.at = (starts[s] + shift) % units;
+    }
+    true
+}
+
+/// Parameterizes `disk` over the unit square with `k` base quads per side,
+/// then runs `iterations` stretch-reweighting steps.
+pub fn parameterize(disk: &Disk, k_min: usize, iterations: usize) -> Result<SquareMap> {
+    let n = disk.boundary.len();
+    let mut segs = segments(disk);
+    let lengths: Vec<f64> = segs
+        .iter()
+        .map(|s| {
+            (0..s.len)
+                .map(|j| {
+                    let a = disk.boundary[(s.start + j) % n] as usize;
+                    let b = disk.boundary[(s.start + j + 1) % n] as usize;
+                    disk.positions[a].distance(disk.positions[b])
+                })
+                .sum()
+        })
+        .collect();
+    // A segment starts at a leaf node when the segment before it is its mate.
+    let leaves: Vec<usize> = (0..segs.len())
+        .filter(|&s| segs[(s + segs.len() - 1) % segs.len()].mate == Some(s))
+        .collect();
+    let mut k = k_min.max(1);
+    while !allocate(&mut segs, &lengths, k, &leaves) {
+        k += 1;
+        if k > 4096 {
+            return Err(Error::Remesh(
+                "the cut has too many segments to lay out".into(),
+            ));
+        }
+    }
+    // Boundary positions by arc length within each segment.
+    let mut uv = vec![DVec2::ZERO; disk.positions.len()];
+    let mut fixed = vec![false; disk.positions.len()];
+    for (s, seg) in segs.iter().enumerate() {
+        let mut walked = 0.0;
+        for j in 0..seg.len {
+            let v = disk.boundary[(seg.start + j) % n] as usize;
+            let t = if lengths[s] > 0.0 {
+                walked / lengths[s]
+            } else {
+                j as f64 / seg.len as f64
+            };
+            uv[v] = perimeter_point(seg.at as f64 + t * seg.count as f64, k);
+            fixed[v] = true;
+            let w = disk.boundary[(seg.start + j + 1) % n] as usize;
+            walked += disk.positions[v].distance(disk.positions[w]);
+        }
+    }
+    snap_corners(disk, &segs, k, &mut uv);
+    let base = mean_value_weights(disk);
+    let mut weights = base.clone();
+    let mut best: Option<SquareMap> = None;
+    for _ in 0..=iterations {
+        solve(disk, &weights, &fixed, &mut uv)?;
+        let (stretch, vertex_stretch, flipped) = stretch(disk, &uv);
+        let better = best
+            .as_ref()
+            .is_none_or(|b| (flipped, stretch) < (b.flipped, b.stretch));
+        if better {
+            best = Some(SquareMap {
+                k,
+                uv: uv.clone(),
+                segments: segs.clone(),
+                stretch,
+                vertex_stretch: vertex_stretch.clone(),
+                flipped,
+            });
+        }
+        // Yoshizawa et al.: divide each weight by the stretch at its far end.
+        for (i, row) in weights.iter_mut().enumerate() {
+            let _ = i;
+            for (j, w) in row.iter_mut() {
+                *w /= vertex_stretch[*j as usize].max(1e-12);
+            }
+        }
+    }
+    Ok(best.expect("at least one solve"))
+}
+
+/// Moves the boundary vertex nearest each corner of the square onto it, so
+/// that no triangle cuts the corner off and every grid point is covered.
+/// Nodes stay where they are (they already sit on base vertices).
+fn snap_corners(disk: &Disk, segs: &[Segment], k: usize, uv: &mut [DVec2]) {
+    let n = disk.boundary.len();
+    let corners = [DVec2::ZERO, DVec2::X, DVec2::ONE, DVec2::Y];
+    for corner in corners {
+        let mut best: Option<(f64, usize)> = None;
+        for seg in segs {
+            // Interior vertices of the segment only: its ends are nodes.
+            for j in 1..seg.len {
+                let v = disk.boundary[(seg.start + j) % n] as usize;
+                let d = uv[v].distance_squared(corner);
+                if best.is_none_or(|(bd, _)| d < bd) {
+                    best = Some((d, v));
+                }
+            }
+        }
+        let is_node_at_corner = segs
+            .iter()
+            .any(|s| uv[disk.boundary[s.start] as usize].distance_squared(corner) < 1e-24);
+        if let (Some((d, v)), false) = (best, is_node_at_corner) {
+            // Only a vertex on one of the corner's two sides can move there
+            // without crossing another boundary vertex.
+            if d < (1.0 / k as f64).powi(2) {
+                uv[v] = corner;
+            }
+        }
+    }
+}
+
+/// Mean-value weights of each vertex's neighbours: `(i, [(j, w_ij)])`.
+fn mean_value_weights(disk: &Disk) -> Vec<Vec<(u32, f64)>> {
+    let mut w: Vec<Vec<(u32, f64)>> = vec![Vec::new(); disk.positions.len()];
+    let mut add = |i: u32, j: u32, x: f64| {
+        let row = &mut w[i as usize];
+        match row.iter_mut().find(|(k, _)| *k == j) {
+            Some((_, v)) => *v += x,
+            None => row.push((j, x)),
+        }
+    };
+    for t in &disk.triangles {
+        for c in 0..3 {
+            let (i, j, k) = (t[c], t[(c + 1) % 3], t[(c + 2) % 3]);
+            let p = |v: u32| disk.positions[v as usize];
+            let (a, b) = (p(j) - p(i), p(k) - p(i));
+            let (la, lb) = (a.length(), b.length());
+            if la <= 0.0 || lb <= 0.0 {
+                continue;
+            }
+            let angle = a.angle_between(b);
+            let half_tan = (angle / 2.0).tan();
+            add(i, j, half_tan / la);
+            add(i, k, half_tan / lb);
+        }
+    }
+    w
+}
+
+/// Solves for the free vertices' `uv` given the fixed ones.
+fn solve(disk: &Disk, weights: &[Vec<(u32, f64)>], fixed: &[bool], uv: &mut [DVec2]) -> Result<()> {
+    let n = disk.positions.len();
+    let mut index = vec![u32::MAX; n];
+    let mut free = 0usize;
+    for v in 0..n {
+        if !fixed[v] {
+            index[v] = free as u32;
+            free += 1;
+        }
+    }
+    if free == 0 {
+        return Ok(());
+    }
+    let mut triplets = Vec::with_capacity(free * 7);
+    let mut rhs = Mat::<f64>::zeros(free, 2);
+    for v in 0..n {
+        if fixed[v] {
+            continue;
+        }
+        let row = index[v] as usize;
+        let mut diagonal = 0.0;
+        for &(j, w) in &weights[v] {
+            let w = if w.is_finite() && w > 0.0 { w } else { 1e-12 };
+            diagonal += w;
+            if fixed[j as usize] {
+                rhs[(row, 0)] += w * uv[j as usize].x;
+                rhs[(row, 1)] += w * uv[j as usize].y;
+            } else {
+                triplets.push(Triplet::new(row, index[j as usize] as usize, -w));
+            }
+        }
+        triplets.push(Triplet::new(row, row, diagonal.max(1e-12)));
+    }
+    let matrix = SparseColMat::<usize, f64>::try_new_from_triplets(free, free, &triplets)
+        .map_err(|e| Error::Remesh(format!("assembling the parameterization: {e:?}")))?;
+    let lu = matrix
+        .sp_lu()
+        .map_err(|e| Error::Remesh(format!("factoring the parameterization: {e:?}")))?;
+    let x = lu.solve(&rhs);
+    for v in 0..n {
+        if !fixed[v] {
+            let r = index[v] as usize;
+            uv[v] = DVec2::new(x[(r, 0)], x[(r, 1)]);
+        }
+    }
+    Ok(())
+}
+
+/// Sander et al.'s L2 stretch: the area-weighted mean over triangles, scaled
+/// so that a map preserving area up to one global factor scores 1, and per
+/// vertex; plus the number of triangles with non-positive parameter area.
+fn stretch(disk: &Disk, uv: &[DVec2]) -> (f64, Vec<f64>, usize) {
+    let mut sum = 0.0;
+    let mut area3 = 0.0;
+    let mut area2 = 0.0;
+    let mut flipped = 0;
+    let mut per_vertex = vec![(0.0, 0.0); disk.positions.len()];
+    for t in &disk.triangles {
+        let [p1, p2, p3]: [DVec3; 3] = t.map(|v| disk.positions[v as usize]);
+        let [q1, q2, q3]: [DVec2; 3] = t.map(|v| uv[v as usize]);
+        let a2 = 0.5 * ((q2 - q1).perp_dot(q3 - q1));
+        let a3 = 0.5 * (p2 - p1).cross(p3 - p1).length();
+        area3 += a3;
+        if a2 <= 0.0 {
+            flipped += 1;
+            continue;
+        }
+        area2 += a2;
+        let ss = (p1 * (q2.y - q3.y) + p2 * (q3.y - q1.y) + p3 * (q1.y - q2.y)) / (2.0 * a2);
+        let st = (p1 * (q3.x - q2.x) + p2 * (q1.x - q3.x) + p3 * (q2.x - q1.x)) / (2.0 * a2);
+        let s2 = (ss.length_squared() + st.length_squared()) / 2.0;
+        sum += a3 * s2;
+        for &v in t {
+            let e = &mut per_vertex[v as usize];
+            e.0 += a3 * s2;
+            e.1 += a3;
+        }
+    }
+    let scale = if area3 > 0.0 { area2 / area3 } else { 1.0 };
+    let total = (sum / area3.max(1e-300) * scale).sqrt();
+    let per_vertex = per_vertex
+        .iter()
+        .map(|&(s, a)| if a > 0.0 { (s / a * scale).sqrt() } else { 1.0 })
+        .collect();
+    (total, per_vertex, flipped)
+}
