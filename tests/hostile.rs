@@ -161,7 +161,12 @@ fn replay(case: &Case) -> Result<Duration, String> {
 fn corpus_fails_cleanly() {
     let cases = corpus_table("Corpus");
     // Every file is indexed exactly once, and every row has its file.
-    let mut indexed: Vec<String> = cases.iter().map(|c| c.file.clone()).collect();
+    let remeshed = corpus_table("Remeshed");
+    let mut indexed: Vec<String> = cases
+        .iter()
+        .chain(&remeshed)
+        .map(|c| c.file.clone())
+        .collect();
     indexed.sort();
     let mut files = listing(&corpus_dir());
     files.retain(|f| f != "README.md");
@@ -230,7 +235,7 @@ fn crc32(data: &[u8]) -> u32 {
 /// A valid small `.qm`: the holed grid at 10 bits (under a kilobyte).
 fn valid_qm() -> Vec<u8> {
     let mesh = qm::read_mesh(&asset("quad/holed_grid_l4.obj")).unwrap();
-    let prepared = qm::prepare(&mesh).unwrap();
+    let prepared = qm::detect(&mesh).unwrap();
     let options = qm::EncodeOptions::DEFAULT.with_bits(10);
     qm::compress(&prepared.mesh, &options).unwrap().bytes
 }
@@ -431,5 +436,34 @@ proptest! {
             prop_assert!(decoded.is_ok(), "cut {} of {}: {:?}", cut, len, decoded.err());
             prop_assert_eq!(decoded.unwrap().values.len(), compressed.quantized.len());
         }
+    }
+}
+
+/// Messy but usable meshes compress (clean-up and remeshing) and decode.
+#[test]
+fn messy_meshes_are_remeshed() {
+    let cases = corpus_table("Remeshed");
+    assert!(!cases.is_empty());
+    for case in cases {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::copy(corpus_dir().join(&case.file), dir.path().join(&case.file)).unwrap();
+        let run = run_qm(
+            &["compress", &case.file, "-o", "out.qm", "--quiet"],
+            dir.path(),
+            Duration::from_secs(10),
+        );
+        assert_eq!(run.code, Some(0), "{}: {}", case.file, run.stderr);
+        let run = run_qm(
+            &["decompress", "out.qm", "-o", "out.obj", "--quiet"],
+            dir.path(),
+            Duration::from_secs(10),
+        );
+        assert_eq!(run.code, Some(0), "{}: {}", case.file, run.stderr);
+        let back = qm::read_mesh(&dir.path().join("out.obj")).unwrap();
+        assert!(
+            back.all_faces_have(4) && back.face_count() > 0,
+            "{}",
+            case.file
+        );
     }
 }

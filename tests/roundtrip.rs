@@ -17,7 +17,7 @@ fn lossless_round_trip_on_external_quad_meshes() {
     ];
     for (name, level, faces) in expected {
         let input = qm::read_mesh(&asset(&format!("quad/{name}"))).unwrap();
-        let prepared = qm::prepare(&input).unwrap();
+        let prepared = qm::detect(&input).unwrap();
         let layout = prepared.mesh.layout();
         assert_eq!(
             (layout.level(), layout.face_count()),
@@ -57,7 +57,7 @@ const TOLERATED_RISE_DB: f64 = 0.5;
 fn every_prefix_decodes_and_error_falls() {
     for name in QUAD_MODELS {
         let input = qm::read_mesh(&asset(&format!("quad/{name}"))).unwrap();
-        let prepared = qm::prepare(&input).unwrap();
+        let prepared = qm::detect(&input).unwrap();
         let original: Vec<_> = prepared
             .source
             .iter()
@@ -115,7 +115,7 @@ fn every_prefix_decodes_and_error_falls() {
 #[test]
 fn pass_limits_agree_between_encoder_and_decoder() {
     let input = qm::read_mesh(&asset("quad/torus_4x6_l4.obj")).unwrap();
-    let prepared = qm::prepare(&input).unwrap();
+    let prepared = qm::detect(&input).unwrap();
     let full = qm::compress(&prepared.mesh, &EncodeOptions::DEFAULT).unwrap();
     let six = qm::compress(&prepared.mesh, &EncodeOptions::DEFAULT.with_passes(Some(6))).unwrap();
     let a = qm::decompress(&full.bytes, &DecodeOptions::default().with_passes(Some(6))).unwrap();
@@ -130,7 +130,7 @@ fn pass_limits_agree_between_encoder_and_decoder() {
 #[test]
 fn coarser_levels_decode() {
     let input = qm::read_mesh(&asset("quad/cc_dodecahedron.obj")).unwrap();
-    let prepared = qm::prepare(&input).unwrap();
+    let prepared = qm::detect(&input).unwrap();
     let compressed = qm::compress(&prepared.mesh, &EncodeOptions::DEFAULT).unwrap();
     for level in 0..=3u32 {
         let decoded = qm::decompress(

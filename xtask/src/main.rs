@@ -58,7 +58,7 @@ fn pass_table(args: &[String]) -> Result<(), String> {
             .file_name()
             .map_or(String::new(), |n| n.to_string_lossy().into_owned());
         let input = qm::read_mesh(&file).map_err(|e| e.to_string())?;
-        let prepared = qm::prepare(&input).map_err(|e| format!("{}: {e}", file.display()))?;
+        let prepared = qm::detect(&input).map_err(|e| format!("{}: {e}", file.display()))?;
         let original: Vec<_> = prepared
             .source
             .iter()

@@ -15,7 +15,7 @@
 //! ```no_run
 //! # fn main() -> qm::Result<()> {
 //! let mesh = qm::read_mesh("model.obj".as_ref())?;
-//! let prepared = qm::prepare(&mesh)?;
+//! let prepared = qm::prepare(&mesh, &qm::RemeshOptions::DEFAULT)?;
 //! let compressed = qm::compress(&prepared.mesh, &qm::EncodeOptions::DEFAULT)?;
 //! // Any prefix after the base mesh decodes.
 //! let cut = &compressed.bytes[..compressed.bytes.len() / 2];
@@ -37,7 +37,7 @@ pub use qm_io::{
     Compressed, DecodeOptions, Decompressed, EncodeOptions, Limits, PolyMesh, UpdateRule, Weighting,
 };
 pub use qm_lift::SemiRegularMesh;
-pub use qm_param::Detected;
+pub use qm_param::{Detected, RemeshOptions, Remeshed};
 
 /// Reads a mesh file (OBJ, PLY, OFF or STL).
 pub fn read_mesh(path: &std::path::Path) -> Result<PolyMesh> {
@@ -49,10 +49,49 @@ pub fn write_mesh(path: &std::path::Path, mesh: &PolyMesh) -> Result<()> {
     Ok(qm_io::mesh::write_mesh(path, mesh)?)
 }
 
-/// Turns an input mesh into a semi-regular quad mesh: a quad mesh with
-/// subdivision connectivity is taken as it is.
-pub fn prepare(mesh: &PolyMesh) -> Result<Detected> {
+/// Finds subdivision connectivity in a quad mesh (no remeshing).
+pub fn detect(mesh: &PolyMesh) -> Result<Detected> {
     Ok(qm_param::detect_subdivision(mesh)?)
+}
+
+/// Remeshes any mesh into a semi-regular quad mesh.
+pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
+    Ok(qm_param::remesh(mesh, options)?)
+}
+
+/// An input mesh made semi-regular.
+#[derive(Clone, Debug)]
+pub struct Prepared {
+    /// The semi-regular mesh to compress.
+    pub mesh: SemiRegularMesh,
+    /// For a quad mesh taken as it is: the input vertex of each sample.
+    pub source: Option<Vec<u32>>,
+    /// For a remeshed input: what the remesher did.
+    pub remeshed: Option<Remeshed>,
+}
+
+/// Turns any input mesh into a semi-regular quad mesh: a quad mesh with
+/// subdivision connectivity is taken as it is, anything else is remeshed.
+pub fn prepare(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Prepared> {
+    if mesh.all_faces_have(4) {
+        match qm_param::detect_subdivision(mesh) {
+            Ok(d) => {
+                return Ok(Prepared {
+                    mesh: d.mesh,
+                    source: Some(d.source),
+                    remeshed: None,
+                });
+            }
+            Err(qm_param::Error::NoSubdivisionConnectivity | qm_param::Error::InvalidMesh(_)) => {}
+            Err(e) => return Err(e.into()),
+        }
+    }
+    let r = qm_param::remesh(mesh, options)?;
+    Ok(Prepared {
+        mesh: r.mesh.clone(),
+        source: None,
+        remeshed: Some(r),
+    })
 }
 
 /// Compresses a semi-regular mesh.

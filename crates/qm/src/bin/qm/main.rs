@@ -43,6 +43,24 @@ enum Command {
         /// Cut the file to at most this many bytes.
         #[arg(long)]
         bytes: Option<usize>,
+        /// Subdivision level when the input must be remeshed (default: about
+        /// 16 samples per input vertex).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=qm::lift::MAX_LEVEL as i64))]
+        level: Option<u32>,
+        /// No progress or summary output.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Remesh any mesh into a semi-regular quad mesh and write it.
+    Remesh {
+        /// Input mesh.
+        input: PathBuf,
+        /// Output mesh, .obj or .ply (default: the input name + "-remeshed.obj").
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Subdivision level (default: about 16 samples per input vertex).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=qm::lift::MAX_LEVEL as i64))]
+        level: Option<u32>,
         /// No progress or summary output.
         #[arg(long)]
         quiet: bool,
@@ -104,8 +122,15 @@ fn main() -> ExitCode {
             bits,
             passes,
             bytes,
+            level,
             quiet,
-        } => compress(&input, output, bits, passes, bytes, quiet),
+        } => compress(&input, output, bits, passes, bytes, level, quiet),
+        Command::Remesh {
+            input,
+            output,
+            level,
+            quiet,
+        } => remesh(&input, output, level, quiet),
         Command::Decompress {
             input,
             output,
@@ -138,6 +163,7 @@ fn compress(
     bits: u32,
     passes: Option<u32>,
     bytes: Option<usize>,
+    level: Option<u32>,
     quiet: bool,
 ) -> Result<(), Failure> {
     let output = output.unwrap_or_else(|| default_output(input, "qm"));
@@ -145,8 +171,14 @@ fn compress(
     let progress = Progress::new(quiet);
     progress.step("reading mesh");
     let mesh = qm::read_mesh(input).map_err(|e| Failure::about(input, e))?;
-    progress.step("finding subdivision connectivity");
-    let prepared = qm::prepare(&mesh).map_err(|e| Failure::about(input, e))?;
+    progress.step("making the mesh semi-regular (subdivision connectivity or remeshing)");
+    let options = qm::RemeshOptions::DEFAULT.with_level(level);
+    let prepared = qm::prepare(&mesh, &options).map_err(|e| Failure::about(input, e))?;
+    progress.suspend(|| {
+        if let (false, Some(r)) = (quiet, &prepared.remeshed) {
+            report_remesh(input, r);
+        }
+    });
     progress.step("lifting and coding");
     let options = qm::EncodeOptions::DEFAULT
         .with_bits(bits)
@@ -175,6 +207,60 @@ fn compress(
         );
     }
     Ok(())
+}
+
+fn remesh(
+    input: &Path,
+    output: Option<PathBuf>,
+    level: Option<u32>,
+    quiet: bool,
+) -> Result<(), Failure> {
+    let output = output.unwrap_or_else(|| {
+        let stem = input
+            .file_stem()
+            .map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
+        input.with_file_name(format!("{stem}-remeshed.obj"))
+    });
+    refuse_overwriting_input(input, &output)?;
+    let progress = Progress::new(quiet);
+    progress.step("reading mesh");
+    let mesh = qm::read_mesh(input).map_err(|e| Failure::about(input, e))?;
+    progress.step("cleaning, cutting, parameterizing and resampling");
+    let remeshed = qm::remesh(&mesh, &qm::RemeshOptions::DEFAULT.with_level(level))
+        .map_err(|e| Failure::about(input, e))?;
+    let layout = remeshed.mesh.layout();
+    let quads = layout.quads(layout.level());
+    let out = qm::PolyMesh::from_faces(remeshed.mesh.positions().to_vec(), &quads);
+    progress.step("writing mesh");
+    qm::write_mesh(&output, &out).map_err(|e| Failure::about(&output, e))?;
+    progress.finish();
+    if !quiet {
+        report_remesh(input, &remeshed);
+        eprintln!(
+            "-> {}: {} vertices, {} quads",
+            output.display(),
+            out.positions.len(),
+            out.face_count()
+        );
+    }
+    Ok(())
+}
+
+/// The clean-up line and one line per component.
+fn report_remesh(input: &Path, r: &qm::Remeshed) {
+    eprintln!("{}: {}", input.display(), r.clean);
+    let layout = r.mesh.layout();
+    for (i, c) in r.components.iter().enumerate() {
+        eprintln!(
+            "  component {i}: {} vertices -> {} base quads x level {}, {} extra cuts, stretch {:.3}, {} flipped",
+            c.vertices,
+            c.base_quads,
+            layout.level(),
+            c.extra_cuts,
+            c.stretch,
+            c.flipped
+        );
+    }
 }
 
 fn decompress(

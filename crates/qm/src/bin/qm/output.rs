@@ -117,6 +117,14 @@ impl Progress {
         }
     }
 
+    /// Runs `f` with the spinner hidden, for printing.
+    pub fn suspend(&self, f: impl FnOnce()) {
+        match &self.0 {
+            Some(bar) => bar.suspend(f),
+            None => f(),
+        }
+    }
+
     pub fn finish(&self) {
         if let Some(bar) = &self.0 {
             bar.finish_and_clear();
