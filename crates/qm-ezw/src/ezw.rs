@@ -290,12 +290,9 @@ struct State {
     neg: Vec<u8>,
     /// Whether the node's subtree has been opened.
     open: Vec<bool>,
-    /// Magnitude bits known so far.
-    mag: Vec<[u32; 3]>,
-    /// Lowest bit plane known of each coordinate (meaningful once significant).
-    low: Vec<[u8; 3]>,
-    /// Per level, significant coordinates in the order they became so.
-    refine_lists: Vec<Vec<(u32, u8)>>,
+    /// Per level, significant coordinates in the order they became so, with
+    /// what is known of their magnitudes.
+    refine_lists: Vec<Vec<Significant>>,
     models: Models,
     frontier: Vec<u32>,
     next: Vec<u32>,
@@ -310,8 +307,6 @@ impl State {
             sig: vec![0; n],
             neg: vec![0; n],
             open: vec![false; n],
-            mag: vec![[0; 3]; n],
-            low: vec![[0; 3]; n],
             refine_lists: vec![Vec::new(); tree.max_level() as usize],
             models: Models::new(),
             frontier: Vec::new(),
@@ -437,9 +432,12 @@ impl State {
                         if negative {
                             self.neg[k] |= 1 << c;
                         }
-                        self.mag[k][c] = 1 << b;
-                        self.low[k][c] = b as u8;
-                        self.refine_lists[level as usize - 1].push((k as u32, c as u8));
+                        self.refine_lists[level as usize - 1].push(Significant {
+                            node: k as u32,
+                            coord: c as u8,
+                            low: b as u8,
+                            mag: 1 << b,
+                        });
                     }
                 }
                 let children = tree.children(k);
@@ -479,38 +477,45 @@ impl State {
         let b = self.own_plane(plane, level);
         if b < 0 {
             // Every coordinate of this level is exact.
-            self.refine_lists[level as usize - 1] = Vec::new();
             return Ok(());
         }
-        for i in 0..count {
-            let (k, c) = self.refine_lists[level as usize - 1][i];
-            let (k, c) = (k as usize, c as usize);
-            let first = (self.low[k][c] as i32 == b + 1) as usize;
+        let models = &mut self.models.refine;
+        for e in &mut self.refine_lists[level as usize - 1][..count] {
+            let (k, c) = (e.node as usize, e.coord as usize);
+            let first = (e.low as i32 == b + 1) as usize;
             let truth = (oracle.magnitude(k, c) >> b) & 1 != 0;
-            if coder.code(&mut self.models.refine[c * 2 + first], truth)? {
-                self.mag[k][c] |= 1 << b;
+            if coder.code(&mut models[c * 2 + first], truth)? {
+                e.mag |= 1 << b;
             }
-            self.low[k][c] = b as u8;
+            e.low = b as u8;
         }
         Ok(())
     }
 
-    /// Centre of every coefficient's uncertainty interval.
+    /// Centre of every coefficient's uncertainty interval (zero for the
+    /// coordinates not yet significant).
     fn reconstruct(&self) -> Vec<Coef> {
-        (0..self.sig.len())
-            .map(|k| {
-                std::array::from_fn(|c| {
-                    if self.sig[k] & (1 << c) == 0 {
-                        return 0;
-                    }
-                    let low = self.low[k][c] as u32;
-                    let half = if low > 0 { 1u32 << (low - 1) } else { 0 };
-                    let m = (self.mag[k][c] + half) as i32;
-                    if self.neg[k] & (1 << c) != 0 { -m } else { m }
-                })
-            })
-            .collect()
+        let mut coefs = vec![[0; 3]; self.sig.len()];
+        for e in self.refine_lists.iter().flatten() {
+            let (k, c) = (e.node as usize, e.coord as usize);
+            let low = e.low as u32;
+            let half = if low > 0 { 1u32 << (low - 1) } else { 0 };
+            let m = (e.mag + half) as i32;
+            coefs[k][c] = if self.neg[k] & (1 << c) != 0 { -m } else { m };
+        }
+        coefs
     }
+}
+
+/// A significant coordinate and the bits known of its magnitude.
+#[derive(Clone, Copy)]
+struct Significant {
+    node: u32,
+    coord: u8,
+    /// Lowest bit plane known.
+    low: u8,
+    /// Magnitude bits known so far.
+    mag: u32,
 }
 
 #[cfg(test)]

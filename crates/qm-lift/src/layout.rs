@@ -107,31 +107,44 @@ impl Layout {
     }
 
     /// The base mesh.
+    #[inline]
     pub fn base(&self) -> &BaseMesh {
         &self.base
     }
 
     /// The number of refinement levels.
+    #[inline]
     pub fn level(&self) -> u32 {
         self.level
     }
 
     /// Grid size per face side, `2^level`.
+    #[inline]
     pub fn n(&self) -> usize {
         1 << self.level
     }
 
     /// Number of samples (distinct vertices of the finest mesh).
+    #[inline]
     pub fn sample_count(&self) -> usize {
         self.sample_count as usize
     }
 
+    /// First id of the face interiors: ids below it lie on base vertices and
+    /// edges, shared by the faces that meet there.
+    pub(crate) fn first_interior(&self) -> usize {
+        let n = self.n();
+        self.base.vertex_count() as usize + self.base.edges().len() * (n - 1)
+    }
+
     /// Number of base faces.
+    #[inline]
     pub fn face_count(&self) -> usize {
         self.base.faces().len()
     }
 
     /// The grid of face `f`: `(n + 1)^2` sample ids, row-major.
+    #[inline]
     pub fn face_grid(&self, f: usize) -> &[u32] {
         let side = self.n() + 1;
         &self.grid[f * side * side..(f + 1) * side * side]

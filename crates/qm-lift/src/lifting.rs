@@ -100,7 +100,10 @@ enum Direction {
 struct Scratch {
     pad: Vec<Acc>,
     column: Vec<Acc>,
-    acc: Vec<Acc>,
+    /// Update sums of the evens of one face, `(m + 1)^2`.
+    local: Vec<Acc>,
+    /// Update sums of the evens shared between faces (base vertices and edges).
+    shared: Vec<Acc>,
 }
 
 impl<'a> Lifting<'a> {
@@ -138,7 +141,8 @@ impl<'a> Lifting<'a> {
         Scratch {
             pad: vec![[0; 3]; (m + 3) * (m + 3)],
             column: vec![[0; 3]; m + 3],
-            acc: vec![[0; 3]; self.layout.sample_count()],
+            local: Vec::new(),
+            shared: vec![[0; 3]; self.layout.first_interior()],
         }
     }
 
@@ -160,72 +164,102 @@ impl<'a> Lifting<'a> {
         }
     }
 
-    /// Visits every odd sample of `level` exactly once: `visit(kind, sample,
-    /// evens)` with the coarse grid positions `(a, b)` of its even neighbours
-    /// in face `f` (2 for an edge point, 4 for a face point).
-    fn for_each_odd(&self, f: usize, level: u32, mut visit: impl FnMut(u32, &[(usize, usize)])) {
-        let layout = self.layout;
-        let base = layout.base();
-        let s = 1usize << (layout.level() - level + 1);
-        let h = s / 2;
-        let m = layout.n() / s;
-        let owns = |side: u8| base.owns(f as u32, side);
-        for b in 0..=m {
-            if (b == 0 && !owns(0)) || (b == m && !owns(2)) {
-                continue;
-            }
-            for a in 0..m {
-                visit(layout.sample(f, a * s + h, b * s), &[(a, b), (a + 1, b)]);
-            }
-        }
-        for b in 0..m {
-            for a in 0..=m {
-                if (a == 0 && !owns(3)) || (a == m && !owns(1)) {
-                    continue;
-                }
-                visit(layout.sample(f, a * s, b * s + h), &[(a, b), (a, b + 1)]);
-            }
-            for a in 0..m {
-                let corners = [(a, b), (a + 1, b), (a, b + 1), (a + 1, b + 1)];
-                visit(layout.sample(f, a * s + h, b * s + h), &corners);
-            }
-        }
-    }
-
     /// Update step of `level`: evens += sign * round(share of details).
+    ///
+    /// The details of face `f` are summed per even into a face-local buffer.
+    /// An even inside the face hears only from details of this face and is
+    /// updated at once; evens on base vertices and edges (ids below the first
+    /// face interior, see [`Layout`]) also hear from the faces next door, so
+    /// their sums go to a shared accumulator that is rounded at the end.
     fn update(&self, level: u32, data: &mut [Coord], sign: i32, scratch: &mut Scratch) {
         let Some((den, we, wf)) = self.update.weights() else {
             return;
         };
         let layout = self.layout;
+        let base = layout.base();
         let s = 1usize << (layout.level() - level + 1);
-        let acc = &mut scratch.acc;
-        for f in 0..layout.face_count() {
-            self.for_each_odd(f, level, |odd, evens| {
-                let d = data[odd as usize];
-                let w = if evens.len() == 2 { we } else { wf };
-                for &(a, b) in evens {
-                    let e = &mut acc[layout.sample(f, a * s, b * s) as usize];
-                    for k in 0..3 {
-                        e[k] += w * d[k] as i64;
-                    }
-                }
-            });
-        }
+        let h = s / 2;
+        let side = layout.n() + 1;
         let m = layout.n() / s;
+        let w = m + 1;
+        let shared = &mut scratch.shared;
+        let local = &mut scratch.local;
+        local.clear();
+        local.resize(w * w, [0; 3]);
+        let add = |e: &mut Acc, wt: i64, d: Coord| {
+            e[0] += wt * d[0] as i64;
+            e[1] += wt * d[1] as i64;
+            e[2] += wt * d[2] as i64;
+        };
+        let round = |e: &Acc| -> Coord {
+            std::array::from_fn(|k| sign * (e[k] + den / 2).div_euclid(den) as i32)
+        };
         for f in 0..layout.face_count() {
+            let grid = layout.face_grid(f);
+            let owns = |k: u8| base.owns(f as u32, k);
+            local.fill([0; 3]);
+            // Horizontal edge points on rows of evens.
             for b in 0..=m {
+                if (b == 0 && !owns(0)) || (b == m && !owns(2)) {
+                    continue;
+                }
+                let row = &grid[b * s * side..][..side];
+                let acc = &mut local[b * w..][..w];
+                for a in 0..m {
+                    let d = data[row[a * s + h] as usize];
+                    add(&mut acc[a], we, d);
+                    add(&mut acc[a + 1], we, d);
+                }
+            }
+            // Odd rows: vertical edge points and face points.
+            for b in 0..m {
+                let row = &grid[(b * s + h) * side..][..side];
+                let (lo, hi) = local[b * w..][..2 * w].split_at_mut(w);
                 for a in 0..=m {
-                    let id = layout.sample(f, a * s, b * s) as usize;
-                    let e = &mut acc[id];
-                    if *e != [0; 3] {
-                        for k in 0..3 {
-                            let delta = (e[k] + den / 2).div_euclid(den) as i32;
-                            data[id][k] += sign * delta;
-                        }
-                        *e = [0; 3];
+                    if (a == 0 && !owns(3)) || (a == m && !owns(1)) {
+                        continue;
+                    }
+                    let d = data[row[a * s] as usize];
+                    add(&mut lo[a], we, d);
+                    add(&mut hi[a], we, d);
+                }
+                for a in 0..m {
+                    let d = data[row[a * s + h] as usize];
+                    add(&mut lo[a], wf, d);
+                    add(&mut lo[a + 1], wf, d);
+                    add(&mut hi[a], wf, d);
+                    add(&mut hi[a + 1], wf, d);
+                }
+            }
+            for b in 0..=m {
+                let row = &grid[b * s * side..][..side];
+                let acc = &local[b * w..][..w];
+                let border = b == 0 || b == m;
+                for a in 0..=m {
+                    let e = &acc[a];
+                    let id = row[a * s] as usize;
+                    if border || a == 0 || a == m {
+                        let t = &mut shared[id];
+                        t[0] += e[0];
+                        t[1] += e[1];
+                        t[2] += e[2];
+                    } else if *e != [0; 3] {
+                        let delta = round(e);
+                        let v = &mut data[id];
+                        v[0] += delta[0];
+                        v[1] += delta[1];
+                        v[2] += delta[2];
                     }
                 }
+            }
+        }
+        for (v, e) in data.iter_mut().zip(shared.iter_mut()) {
+            if *e != [0; 3] {
+                let delta = round(e);
+                v[0] += delta[0];
+                v[1] += delta[1];
+                v[2] += delta[2];
+                *e = [0; 3];
             }
         }
     }
@@ -246,6 +280,8 @@ impl<'a> Lifting<'a> {
         let h = s / 2;
         let m = layout.n() / s;
         let w = m + 3;
+        let grid = layout.face_grid(f);
+        let side = layout.n() + 1;
         gather(layout, f, s, data, &mut scratch.pad);
         let pad = &scratch.pad;
         let p = |a: isize, b: isize| pad[(b + 1) as usize * w + (a + 1) as usize];
@@ -271,7 +307,7 @@ impl<'a> Lifting<'a> {
                 let pred = four_point(p(a - 1, b), p(a, b), p(a + 1, b), p(a + 2, b));
                 apply(
                     data,
-                    layout.sample(f, a as usize * s + h, b as usize * s),
+                    grid[b as usize * s * side + a as usize * s + h],
                     round_shift(pred, 4),
                 );
             }
@@ -290,17 +326,13 @@ impl<'a> Lifting<'a> {
                 if (a == 0 && !owns(3)) || (a == m as isize && !owns(1)) {
                     continue;
                 }
-                apply(
-                    data,
-                    layout.sample(f, a as usize * s, y),
-                    round_shift(c(a), 4),
-                );
+                apply(data, grid[y * side + a as usize * s], round_shift(c(a), 4));
             }
             for a in 0..m as isize {
                 let pred = four_point(c(a - 1), c(a), c(a + 1), c(a + 2));
                 apply(
                     data,
-                    layout.sample(f, a as usize * s + h, y),
+                    grid[y * side + a as usize * s + h],
                     round_shift(pred, 8),
                 );
             }
@@ -333,10 +365,13 @@ fn gather(layout: &Layout, f: usize, s: usize, data: &[Coord], pad: &mut [Acc]) 
             .sample_beyond(f, (a * s as isize) as i32, (b * s as isize) as i32)
             .map(|id| widen(data[id as usize]))
     };
-    for b in 0..=m {
-        for a in 0..=m {
-            pad[at(a, b)] =
-                widen(data[layout.sample(f, (a as usize) * s, (b as usize) * s) as usize]);
+    let grid = layout.face_grid(f);
+    let side = layout.n() + 1;
+    for b in 0..=m as usize {
+        let row = &grid[b * s * side..][..side];
+        let out = &mut pad[(b + 1) * w + 1..][..m as usize + 1];
+        for (a, p) in out.iter_mut().enumerate() {
+            *p = widen(data[row[a * s] as usize]);
         }
     }
     for t in 0..=m {

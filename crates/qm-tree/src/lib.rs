@@ -55,123 +55,193 @@ pub struct ZeroTree {
 impl ZeroTree {
     /// Builds the forest of `layout`'s coefficients (all samples but the
     /// base vertices).
+    ///
+    /// One breadth-first pass: each node keeps its face-local grid position,
+    /// from which its children follow directly (see [`Self::children_of`]).
     pub fn new(layout: &Layout) -> Self {
         let big_l = layout.level();
         let samples = layout.sample_count();
         let base = layout.base();
-        let mut kids: Vec<[u32; 4]> = vec![[0; 4]; samples];
-        let mut kid_count = vec![0u8; samples];
-        let mut add = |parent: u32, child: u32| {
-            let c = &mut kid_count[parent as usize];
-            kids[parent as usize][*c as usize] = child;
-            *c += 1;
-        };
-        let mut roots = Vec::new();
-        for f in 0..layout.face_count() {
-            let owns = |k: u8| base.owns(f as u32, k);
-            for l in 1..=big_l {
-                let h = 1usize << (big_l - l);
-                let s = 2 * h;
-                let m = layout.n() / s;
-                let at = |i: usize, j: usize| layout.sample(f, i, j);
-                if l == 1 {
-                    let c = layout.n() / 2;
-                    roots.push((at(c, c), Kind::Face));
-                    for k in 0..4u8 {
-                        if owns(k) {
-                            let (i, j) = qm_lift::side_point(layout.n() as i32, k, c as i32, 0);
-                            roots.push((at(i as usize, j as usize), Kind::Edge));
-                        }
-                    }
-                }
-                if l == big_l {
-                    continue;
-                }
-                let q = h / 2;
-                for b in 0..m {
-                    for a in 0..m {
-                        let (cx, cy) = (a * s + h, b * s + h);
-                        // Face point: its four sub-face centres.
-                        let centre = at(cx, cy);
-                        for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                            add(centre, at(cx - q + 2 * q * dx, cy - q + 2 * q * dy));
-                        }
-                        // Side midpoints and, per side k, the spoke towards side k + 1.
-                        let mids = [(cx, cy - h), (cx + h, cy), (cx, cy + h), (cx - h, cy)];
-                        for k in 0..4 {
-                            let (nx, ny) = mids[(k + 1) % 4];
-                            let spoke = at((cx + nx) / 2, (cy + ny) / 2);
-                            add(at(mids[k].0, mids[k].1), spoke);
-                        }
-                    }
-                }
-                // Halves of every edge point, once per edge (owner face only
-                // for points on base edges).
-                for b in 0..=m {
-                    if (b == 0 && !owns(0)) || (b == m && !owns(2)) {
-                        continue;
-                    }
-                    for a in 0..m {
-                        let (x, y) = (a * s + h, b * s);
-                        add(at(x, y), at(x - q, y));
-                        add(at(x, y), at(x + q, y));
-                    }
-                }
-                for a in 0..=m {
-                    if (a == 0 && !owns(3)) || (a == m && !owns(1)) {
-                        continue;
-                    }
-                    for b in 0..m {
-                        let (x, y) = (a * s, b * s + h);
-                        add(at(x, y), at(x, y - q));
-                        add(at(x, y), at(x, y + q));
-                    }
-                }
-            }
-        }
-
-        // Breadth-first order from the roots.
+        let n = layout.n();
         let count = samples - base.vertex_count() as usize;
+        if big_l == 0 {
+            return ZeroTree {
+                samples: Vec::new(),
+                levels: Vec::new(),
+                kinds: Vec::new(),
+                parents: Vec::new(),
+                first_child: Vec::new(),
+                child_counts: Vec::new(),
+                level_starts: vec![0],
+                max_level: big_l,
+            };
+        }
+        // Every array has one entry per node: filled in place, not pushed.
         let mut tree = ZeroTree {
             samples: Vec::with_capacity(count),
-            levels: Vec::with_capacity(count),
+            levels: vec![0; count],
             kinds: Vec::with_capacity(count),
-            parents: Vec::with_capacity(count),
-            first_child: Vec::with_capacity(count),
-            child_counts: Vec::with_capacity(count),
+            parents: vec![NO_PARENT; count],
+            first_child: vec![0; count],
+            child_counts: vec![0; count],
             level_starts: vec![0],
             max_level: big_l,
         };
-        // Children are one level finer than their parent and of its kind.
-        for &(r, kind) in &roots {
-            tree.samples.push(r);
-            tree.parents.push(NO_PARENT);
-            tree.levels.push(1);
-            tree.kinds.push(kind);
+        // Grid position of each node: face, then `x | y << 16`.
+        let mut at: Vec<(u32, u32)> = Vec::with_capacity(count);
+        let pack = |x: usize, y: usize| (x | y << 16) as u32;
+        let c = n / 2;
+        for f in 0..layout.face_count() {
+            let grid = layout.face_grid(f);
+            tree.samples.push(grid[c * (n + 1) + c]);
+            tree.kinds.push(Kind::Face);
+            at.push((f as u32, pack(c, c)));
+            for k in 0..4u8 {
+                if base.owns(f as u32, k) {
+                    let (i, j) = qm_lift::side_point(n as i32, k, c as i32, 0);
+                    let (i, j) = (i as usize, j as usize);
+                    tree.samples.push(grid[j * (n + 1) + i]);
+                    tree.kinds.push(Kind::Edge);
+                    at.push((f as u32, pack(i, j)));
+                }
+            }
         }
+        let roots = tree.samples.len();
+        tree.levels[..roots].fill(1);
+        let mut level_end = vec![0usize; big_l as usize + 1];
+        let mut kids = [(0u32, 0usize, 0usize); 4];
         let mut next = 0;
         while next < tree.samples.len() {
-            let sample = tree.samples[next] as usize;
-            let (level, kind) = (tree.levels[next], tree.kinds[next]);
-            tree.first_child.push(tree.samples.len() as u32);
-            tree.child_counts.push(kid_count[sample]);
-            for &child in &kids[sample][..kid_count[sample] as usize] {
-                tree.samples.push(child);
-                tree.parents.push(next as u32);
-                tree.levels.push(level + 1);
+            let level = tree.levels[next];
+            level_end[level as usize] = next + 1;
+            if level as u32 == big_l {
+                // The rest is the finest level: no children.
+                level_end[level as usize] = tree.samples.len();
+                break;
+            }
+            let kind = tree.kinds[next];
+            let first = tree.samples.len();
+            tree.first_child[next] = first as u32;
+            let (f, xy) = at[next];
+            let (x, y) = ((xy & 0xffff) as usize, (xy >> 16) as usize);
+            let h = 1 << (big_l - level as u32);
+            let count = Self::children_of(layout, kind, f, x, y, h, &mut kids);
+            tree.child_counts[next] = count as u8;
+            tree.parents[first..first + count].fill(next as u32);
+            tree.levels[first..first + count].fill(level + 1);
+            for &(g, x, y) in &kids[..count] {
+                tree.samples
+                    .push(layout.face_grid(g as usize)[y * (n + 1) + x]);
                 tree.kinds.push(kind);
+                if level as u32 + 1 < big_l {
+                    at.push((g, pack(x, y)));
+                }
             }
             next += 1;
         }
-        for l in 1..=big_l as u8 {
-            let end = tree
-                .levels
-                .iter()
-                .rposition(|&x| x <= l)
-                .map_or(0, |p| p + 1);
+        // Finest-level nodes: no children, first child would be the end.
+        let end = tree.samples.len() as u32;
+        tree.first_child[next..].fill(end);
+        // Levels never decrease along the breadth-first order.
+        let mut end = 0;
+        for &e in &level_end[1..] {
+            end = end.max(e);
             tree.level_starts.push(end);
         }
         tree
+    }
+
+    /// Children of the level-`l` node at `(x, y)` of face `f`, `h = 2^(L-l)`,
+    /// as `(face, x, y)`, in the order the module docs define: a face point's
+    /// four sub-face centres; an edge point's spokes from its incident coarse
+    /// faces (the one below or left first, then across a base edge by face
+    /// index) with its two halves after the spoke of the face that owns it.
+    #[inline]
+    fn children_of(
+        layout: &Layout,
+        kind: Kind,
+        f: u32,
+        x: usize,
+        y: usize,
+        h: usize,
+        kids: &mut [(u32, usize, usize); 4],
+    ) -> usize {
+        let q = h / 2;
+        if kind == Kind::Face {
+            *kids = [
+                (f, x - q, y - q),
+                (f, x + q, y - q),
+                (f, x - q, y + q),
+                (f, x + q, y + q),
+            ];
+            return 4;
+        }
+        let n = layout.n();
+        let horizontal = x & h != 0;
+        let side = match (horizontal, x, y) {
+            (true, _, 0) => 0u8,
+            (true, _, y) if y == n => 2,
+            (false, 0, _) => 3,
+            (false, x, _) if x == n => 1,
+            (true, _, _) => {
+                *kids = [
+                    (f, x - q, y - h),
+                    (f, x + q, y + h),
+                    (f, x - q, y),
+                    (f, x + q, y),
+                ];
+                return 4;
+            }
+            (false, _, _) => {
+                *kids = [
+                    (f, x - h, y + q),
+                    (f, x + h, y - q),
+                    (f, x, y - q),
+                    (f, x, y + q),
+                ];
+                return 4;
+            }
+        };
+        // On base edge `side` of `f`: a spoke from each incident face, by face
+        // index, and the halves from the owner, right after its spoke.
+        let spoke = |g: u32, k: u8, x: usize, y: usize| match k {
+            0 => (g, x + q, y + h),
+            1 => (g, x - h, y + q),
+            2 => (g, x - q, y - h),
+            _ => (g, x + h, y - q),
+        };
+        let halves = |g: u32, k: u8, x: usize, y: usize| {
+            if k & 1 == 0 {
+                [(g, x - q, y), (g, x + q, y)]
+            } else {
+                [(g, x, y - q), (g, x, y + q)]
+            }
+        };
+        let base = layout.base();
+        let mut incident = [(f, side, x, y); 2];
+        let mut faces = 1;
+        let other = base.across(f, side);
+        if other.exists() {
+            let (t, _) = qm_lift::side_coords(n as i32, side, x as i32, y as i32);
+            let (gx, gy) = qm_lift::side_point(n as i32, other.side, n as i32 - t, 0);
+            incident[1] = (other.face, other.side, gx as usize, gy as usize);
+            if other.face < f {
+                incident.swap(0, 1);
+            }
+            faces = 2;
+        }
+        let mut count = 0;
+        for &(g, k, x, y) in &incident[..faces] {
+            kids[count] = spoke(g, k, x, y);
+            count += 1;
+            if base.owns(g, k) {
+                let [a, b] = halves(g, k, x, y);
+                kids[count] = a;
+                kids[count + 1] = b;
+                count += 2;
+            }
+        }
+        count
     }
 
     /// Number of coefficients (nodes).

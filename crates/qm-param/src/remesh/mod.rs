@@ -24,6 +24,9 @@ use qm_lift::{BaseMesh, Layout, SemiRegularMesh};
 use crate::clean::{CleanReport, clean};
 use crate::{Error, PolyMesh, Result, TriMesh};
 
+/// The remesher never makes more samples than this many per input vertex.
+pub const MAX_SAMPLES_PER_VERTEX: f64 = 32.0;
+
 /// Remesher settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[non_exhaustive]
@@ -32,6 +35,9 @@ pub struct RemeshOptions {
     pub level: Option<u32>,
     /// Samples to aim for per input vertex when choosing the level.
     pub samples_per_vertex: f64,
+    /// Most samples to aim for, whatever the input's size (dense scans need
+    /// far fewer samples per vertex than coarse models).
+    pub max_samples: usize,
     /// Stretch-reweighting iterations of the parameterization.
     pub stretch_iterations: usize,
     /// Most extra cuts towards points of high stretch, per component.
@@ -39,11 +45,13 @@ pub struct RemeshOptions {
 }
 
 impl RemeshOptions {
-    /// Defaults: level for about 16 samples per input vertex, 7 stretch
+    /// Defaults: level for about 30 samples per input vertex but at most
+    /// about a million samples, 7 stretch
     /// iterations, up to 2 extra cuts per component.
     pub const DEFAULT: RemeshOptions = RemeshOptions {
         level: None,
-        samples_per_vertex: 16.0,
+        samples_per_vertex: 30.0,
+        max_samples: 1 << 20,
         stretch_iterations: 7,
         extra_cuts: 2,
     };
@@ -117,25 +125,30 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     for c in &cleaned.components {
         charts.push(chart(c, 3, options)?);
     }
-    // One level for all; base quads per component by area share.
-    let target = options.samples_per_vertex * input_vertices as f64;
+    // One level for all, the highest at which every component's square still
+    // fits its share of the target; then each square grows to its share.
+    // Never more than MAX_SAMPLES_PER_VERTEX times the input's vertices.
+    let target = (options.samples_per_vertex.min(MAX_SAMPLES_PER_VERTEX) * input_vertices as f64)
+        .min(options.max_samples as f64);
+    let shares: Vec<f64> = cleaned
+        .components
+        .iter()
+        .map(|c| c.area() / total_area)
+        .collect();
+    let side = |c: usize| (target * shares[c]).sqrt();
     let level = match options.level {
         Some(l) => l,
-        None => {
-            let side: f64 = charts
-                .iter()
-                .map(|(_, m, _)| (m.k * m.k) as f64)
-                .sum::<f64>()
-                .sqrt();
-            ((target.sqrt() / side).log2().round().max(1.0) as u32).min(qm_lift::MAX_LEVEL)
-        }
+        None => (0..charts.len())
+            .map(|c| (side(c) / charts[c].1.k as f64).log2().floor())
+            .fold(f64::INFINITY, f64::min)
+            .clamp(1.0, qm_lift::MAX_LEVEL as f64) as u32,
     };
     if options.level.is_none() {
-        for (c, component) in cleaned.components.iter().enumerate() {
-            let share = component.area() / total_area;
-            let want = ((target * share).sqrt() / (1u64 << level) as f64).round() as usize;
-            if want > charts[c].1.k {
-                charts[c] = chart(component, want, options)?;
+        for (c, chart) in charts.iter_mut().enumerate() {
+            let want = (side(c) / (1u64 << level) as f64).floor() as usize;
+            if want > chart.1.k {
+                let map = square::parameterize_k(&chart.0, want, options.stretch_iterations)?;
+                chart.1 = fit(&chart.0, map, options)?;
             }
         }
     }
@@ -171,6 +184,36 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
         clean: cleaned.report,
         components: reports,
     })
+}
+
+/// Gluing a small square can make two base edges share both ends without
+/// being mates, which the base mesh would take for one edge: grow the square
+/// until the glued layout is consistent (checked at level 1, where every base
+/// edge has a midpoint sample).
+fn fit(
+    disk: &cut::Disk,
+    mut map: square::SquareMap,
+    options: &RemeshOptions,
+) -> Result<square::SquareMap> {
+    let first = map.k;
+    loop {
+        let probe = resample::resample(disk, &map, 1);
+        let glued = BaseMesh::new(probe.base_vertices, probe.faces)
+            .ok()
+            .and_then(|base| Layout::new(base, 1).ok())
+            .is_some_and(|layout| {
+                SemiRegularMesh::from_face_grids(layout, &probe.grids, &probe.positions).is_ok()
+            });
+        if glued {
+            return Ok(map);
+        }
+        if map.k > 4 * first.max(8) {
+            return Err(Error::Remesh(
+                "could not glue the cut into a valid base mesh".into(),
+            ));
+        }
+        map = square::parameterize_k(disk, map.k + 1, options.stretch_iterations)?;
+    }
 }
 
 /// Cuts and parameterizes one component with at least `k_min` base quads a
@@ -218,22 +261,7 @@ fn chart(
         disk = trial_disk;
         map = trial;
     }
-    // Gluing a small square can make two base edges one (both ends glued):
-    // grow the square until the glued base mesh is valid.
-    let mut k = map.k;
-    loop {
-        let probe = resample::resample(&disk, &map, 0);
-        if BaseMesh::new(probe.base_vertices, probe.faces).is_ok() {
-            break;
-        }
-        k += 1;
-        if k > 4 * map.k.max(8) {
-            return Err(Error::Remesh(
-                "could not glue the cut into a valid base mesh".into(),
-            ));
-        }
-        map = square::parameterize(&disk, k, options.stretch_iterations)?;
-    }
+    let map = fit(&disk, map, options)?;
     let cuts = extra.len();
     Ok((disk, map, cuts))
 }

@@ -51,7 +51,7 @@ pub struct SquareMap {
     pub stretch: f64,
     /// Per disk vertex L2 stretch.
     pub vertex_stretch: Vec<f64>,
-    /// Triangles with non-positive parameter area.
+    /// Triangles with negative parameter area (folds).
     pub flipped: usize,
 }
 
@@ -133,7 +133,9 @@ pub fn segments(disk: &Disk) -> Vec<Segment> {
 /// Lays `segments` out on a perimeter of `4k` base edges. Returns `false`
 /// when `k` is too small for them.
 pub fn allocate(segs: &mut [Segment], lengths: &[f64], k: usize, leaves: &[usize]) -> bool {
-    const MIN: usize = 3;
+    // Two base edges at least: with one, both ends of a cut side could glue
+    // onto one base edge twice.
+    const MIN: usize = 2;
     let units = 4 * k;
     // Groups: a cut's two sides share one count.
     let groups: Vec<usize> = (0..segs.len())
@@ -141,10 +143,8 @@ pub fn allocate(segs: &mut [Segment], lengths: &[f64], k: usize, leaves: &[usize
         .collect();
     let weight = |s: usize| if segs[s].mate.is_some() { 2 } else { 1 };
     let total: f64 = groups.iter().map(|&s| weight(s) as f64 * lengths[s]).sum();
-    let mut count: Vec<usize> = groups
-        .iter()
-        .map(|&s| ((lengths[s] / total.max(1e-300) * units as f64).floor() as usize).max(MIN))
-        .collect();
+    // Everyone starts at the minimum; the rest goes by length below.
+    let mut count: Vec<usize> = vec![MIN; groups.len()];
     let used = |count: &[usize]| {
         groups
             .iter()
@@ -192,9 +192,26 @@ pub fn allocate(segs: &mut [Segment], lengths: &[f64], k: usize, leaves: &[usize
     true
 }
 
-/// Parameterizes `disk` over the unit square with `k` base quads per side,
-/// then runs `iterations` stretch-reweighting steps.
+/// Parameterizes `disk` over the unit square with at least `k_min` base
+/// quads per side. A larger square lets the perimeter follow the segments'
+/// lengths more closely, so `k_min`, twice and four times it (up to 16) are
+/// tried and the lowest stretch wins.
 pub fn parameterize(disk: &Disk, k_min: usize, iterations: usize) -> Result<SquareMap> {
+    let mut best = parameterize_k(disk, k_min, iterations)?;
+    let mut k = best.k;
+    while 2 * k <= 16.max(k_min) && k < 16 {
+        k *= 2;
+        let trial = parameterize_k(disk, k, iterations)?;
+        if (trial.flipped, trial.stretch) < (best.flipped, best.stretch * 0.98) {
+            best = trial;
+        }
+    }
+    Ok(best)
+}
+
+/// [`parameterize`] with `k_min` base quads per side at least, then
+/// `iterations` stretch-reweighting steps.
+pub fn parameterize_k(disk: &Disk, k_min: usize, iterations: usize) -> Result<SquareMap> {
     let n = disk.boundary.len();
     let mut segs = segments(disk);
     let lengths: Vec<f64> = segs
@@ -394,8 +411,12 @@ fn stretch(disk: &Disk, uv: &[DVec2]) -> (f64, Vec<f64>, usize) {
         let a2 = 0.5 * ((q2 - q1).perp_dot(q3 - q1));
         let a3 = 0.5 * (p2 - p1).cross(p3 - p1).length();
         area3 += a3;
-        if a2 <= 0.0 {
+        // Zero area happens when all three corners lie on one side of the
+        // square (a triangle along a bend of the cut): not a fold.
+        if a2 < 0.0 {
             flipped += 1;
+        }
+        if a2 <= 0.0 {
             continue;
         }
         area2 += a2;
