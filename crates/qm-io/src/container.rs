@@ -260,10 +260,17 @@ fn decode_exact<T: serde::de::DeserializeOwned>(raw: &[u8], what: &str) -> Resul
     // The limit stops a corrupt length prefix from allocating more than the
     // section could possibly hold.
     let cfg = config().with_limit::<{ 1 << 30 }>();
-    let (value, used) =
-        bincode::serde::decode_from_slice(raw, cfg).map_err(|e| Error::Malformed {
-            what: format!("{what}: {e}"),
-        })?;
+    let (value, used) = bincode::serde::decode_from_slice(raw, cfg).map_err(|e| {
+        use bincode::error::DecodeError;
+        let problem = match e {
+            DecodeError::UnexpectedEnd { .. } => "it ends before its last field".to_string(),
+            DecodeError::LimitExceeded => "a length field is larger than the section".to_string(),
+            other => other.to_string(),
+        };
+        Error::Malformed {
+            what: format!("{what}: {problem}"),
+        }
+    })?;
     if used != raw.len() {
         return Err(Error::Malformed {
             what: format!("{what}: {} trailing bytes", raw.len() - used),

@@ -138,10 +138,29 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     let side = |c: usize| (target * shares[c]).sqrt();
     let level = match options.level {
         Some(l) => l,
-        None => (0..charts.len())
-            .map(|c| (side(c) / charts[c].1.k as f64).log2().floor())
-            .fold(f64::INFINITY, f64::min)
-            .clamp(1.0, qm_lift::MAX_LEVEL as f64) as u32,
+        None => {
+            // Rounding the level up when that overshoots by at most 15%
+            // keeps the base mesh small (fewer, larger base quads).
+            let fit = |slack: f64| {
+                (0..charts.len())
+                    .map(|c| (slack * side(c) / charts[c].1.k as f64).log2().floor())
+                    .fold(f64::INFINITY, f64::min)
+                    .clamp(1.0, qm_lift::MAX_LEVEL as f64) as u32
+            };
+            let samples = |level: u32| -> f64 {
+                charts
+                    .iter()
+                    .map(|(_, m, _)| ((m.k << level) as f64 + 1.0).powi(2))
+                    .sum()
+            };
+            let cap = MAX_SAMPLES_PER_VERTEX * input_vertices as f64;
+            let loose = fit(1.15);
+            if samples(loose) <= cap {
+                loose
+            } else {
+                fit(1.0)
+            }
+        }
     };
     if options.level.is_none() {
         for (c, chart) in charts.iter_mut().enumerate() {
