@@ -6,11 +6,19 @@
 //!   `20 log10(bbox diagonal / RMS)` with RMS the vertex-to-vertex distance
 //!   between corresponding samples and input vertices (exact correspondence
 //!   exists for meshes taken as they are).
+//! - `rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]`: qm's
+//!   rate-distortion curve against Google Draco's command-line coder on each
+//!   mesh (default: the bundled meshes in `assets/`), measured as surface
+//!   distance to the input; writes `rd.csv`, `table1.md`, `summary.md`,
+//!   `rd.svg` and `rd.png` (default into `target/rd/`). See [`rd`].
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use qm::{DecodeOptions, EncodeOptions};
+
+mod plot;
+mod rd;
 
 const PASSES: [u32; 6] = [2, 4, 6, 8, 10, 12];
 
@@ -18,7 +26,10 @@ fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let result = match args.first().map(String::as_str) {
         Some("pass-table") => pass_table(&args[1..]),
-        _ => Err("usage: cargo xtask pass-table [MESH ...]".to_string()),
+        Some("rd-curve") => rd::run(&args[1..]),
+        _ => Err("usage: cargo xtask pass-table [MESH ...]\n       \
+                  cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]"
+            .to_string()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
