@@ -1,0 +1,12 @@
+//! Arbitrary bytes through the container parser and the whole decoder: each
+//! must return `Ok` or `Err`, never panic, and stay within the sample limit.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    let limits = qm::Limits::DEFAULT.with_max_samples(1 << 20);
+    let _ = qm::io::container::read(data, &limits);
+    let options = qm::DecodeOptions::default().with_limits(limits);
+    let _ = qm::decompress(data, &options);
+});

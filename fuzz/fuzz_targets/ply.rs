@@ -1,0 +1,8 @@
+//! Arbitrary bytes through the PLY reader: `Ok` or `Err`, never a panic.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    let _ = qm::io::mesh::read_mesh_bytes(data, qm::io::mesh::Format::Ply, "fuzz");
+});
