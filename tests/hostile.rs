@@ -365,7 +365,7 @@ fn random_corruptions_through_the_binary() {
     let (mut ok, mut err) = (0, 0);
     // Sealed-header recipes (seed % 3 == 2) are left to the library test,
     // where the sample limit is low; here the default limits apply.
-    for seed in (0..150u64).filter(|s| s % 3 != 2).take(100) {
+    for seed in (0..1500u64).filter(|s| s % 3 != 2).take(1000) {
         let bytes = corrupt(&valid, seed);
         std::fs::write(dir.path().join("in.qm"), &bytes).unwrap();
         let run = run_qm(
@@ -394,7 +394,7 @@ fn random_corruptions_through_the_binary() {
         let _ = std::fs::remove_file(dir.path().join("out.obj"));
     }
     println!(
-        "100 corruptions through qm: {ok} ok, {err} errors; slowest seed {} in {:?}",
+        "1000 corruptions through qm: {ok} ok, {err} errors; slowest seed {} in {:?}",
         slowest.1, slowest.0
     );
     assert!(failures.is_empty(), "{}", failures.join("\n"));
