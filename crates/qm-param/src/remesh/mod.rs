@@ -24,6 +24,9 @@ use qm_lift::{BaseMesh, Layout, SemiRegularMesh};
 use crate::clean::{CleanReport, clean};
 use crate::{Error, PolyMesh, Result, TriMesh};
 
+/// Below this L2 stretch no extra cut is tried.
+const GOOD_STRETCH: f64 = 1.25;
+
 /// The remesher never makes more samples than this many per input vertex.
 pub const MAX_SAMPLES_PER_VERTEX: f64 = 32.0;
 
@@ -247,6 +250,10 @@ fn chart(
     let mut disk = cut::cut_to_disk(mesh, &topo, &extra);
     let mut map = square::parameterize(&disk, k_min, options.stretch_iterations)?;
     for _ in 0..options.extra_cuts {
+        // Sampling is already close to even: a cut would only add seams.
+        if map.stretch < GOOD_STRETCH {
+            break;
+        }
         // The vertex of highest stretch, joined to the nearest cut vertex.
         let Some(worst) = (0..disk.positions.len())
             .max_by(|&a, &b| map.vertex_stretch[a].total_cmp(&map.vertex_stretch[b]))

@@ -23,6 +23,9 @@ use qm_lift::glam::{DVec2, DVec3};
 use super::cut::Disk;
 use crate::{Error, Result};
 
+/// Smallest relative stretch improvement worth another reweighting.
+const STRETCH_GAIN: f64 = 0.005;
+
 /// A run of the boundary loop between two nodes.
 #[derive(Clone, Debug)]
 pub struct Segment {
@@ -264,10 +267,8 @@ pub fn parameterize_k(disk: &Disk, k_min: usize, iterations: usize) -> Result<Sq
     for _ in 0..=iterations {
         solve(disk, &weights, &fixed, &mut uv)?;
         let (stretch, vertex_stretch, flipped) = stretch(disk, &uv);
-        let better = best
-            .as_ref()
-            .is_none_or(|b| (flipped, stretch) < (b.flipped, b.stretch));
-        if better {
+        let previous = best.as_ref().map(|b| (b.flipped, b.stretch));
+        if previous.is_none_or(|p| (flipped, stretch) < p) {
             best = Some(SquareMap {
                 k,
                 uv: uv.clone(),
@@ -277,9 +278,12 @@ pub fn parameterize_k(disk: &Disk, k_min: usize, iterations: usize) -> Result<Sq
                 flipped,
             });
         }
+        // Each iteration is a sparse factorization: stop once it stops paying.
+        if previous.is_some_and(|(f, s)| flipped >= f && stretch > s * (1.0 - STRETCH_GAIN)) {
+            break;
+        }
         // Yoshizawa et al.: divide each weight by the stretch at its far end.
-        for (i, row) in weights.iter_mut().enumerate() {
-            let _ = i;
+        for row in weights.iter_mut() {
             for (j, w) in row.iter_mut() {
                 *w /= vertex_stretch[*j as usize].max(1e-12);
             }
