@@ -143,3 +143,41 @@ fn coarser_levels_decode() {
         assert!(mesh.positions.iter().all(|p| p.is_finite()));
     }
 }
+
+/// A base with a valence-6 vertex and a boundary (six quads around a centre)
+/// plus a second component (a cube): bit-exact after all passes, and every
+/// prefix decodes.
+#[test]
+fn lossless_on_valence_6_and_two_components() {
+    use qm::lift::glam::DVec3;
+    use qm::lift::{BaseMesh, Layout};
+    // Fan: centre 0, ring 1..=12 alternating spoke ends and corners.
+    let mut faces: Vec<[u32; 4]> = (0..6u32)
+        .map(|k| [0, 1 + 2 * k, 2 + 2 * k, 1 + (2 * k + 2) % 12])
+        .collect();
+    let cube = qm::lift::synthetic::cube();
+    faces.extend(cube.faces().iter().map(|f| f.map(|v| v + 13)));
+    let base = BaseMesh::new(21, faces).unwrap();
+    assert!(base.boundary_edge_count() > 0);
+    let layout = Layout::new(base, 3).unwrap();
+    let mut x = 0x9E37_79B9_7F4A_7C15u64;
+    let positions = (0..layout.sample_count())
+        .map(|_| {
+            DVec3::from_array(std::array::from_fn(|_| {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                (x % 10_000) as f64 / 10_000.0
+            }))
+        })
+        .collect();
+    let mesh = qm::SemiRegularMesh::new(layout, positions).unwrap();
+    let compressed = qm::compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
+    let decoded = qm::decompress(&compressed.bytes, &DecodeOptions::default()).unwrap();
+    assert_eq!(decoded.values, compressed.quantized);
+    let start = compressed.header_bytes + compressed.base_bytes;
+    for cut in (start..compressed.bytes.len()).step_by(97) {
+        let d = qm::decompress(&compressed.bytes[..cut], &DecodeOptions::default()).unwrap();
+        assert!(d.values.iter().all(|v| v.iter().all(|c| c.abs() < 1 << 20)));
+    }
+}
