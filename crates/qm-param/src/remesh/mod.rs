@@ -167,7 +167,14 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     };
     if options.level.is_none() {
         for (c, chart) in charts.iter_mut().enumerate() {
-            let want = (side(c) / (1u64 << level) as f64).floor() as usize;
+            // Nearest size to the share, unless rounding up breaks the cap.
+            let exact = side(c) / (1u64 << level) as f64;
+            let cap_side = (MAX_SAMPLES_PER_VERTEX * shares[c] * input_vertices as f64).sqrt();
+            let want = if (exact.round() * (1u64 << level) as f64) < cap_side {
+                exact.round()
+            } else {
+                exact.floor()
+            } as usize;
             if want > chart.1.k {
                 let map = square::parameterize_k(&chart.0, want, options.stretch_iterations)?;
                 chart.1 = fit(&chart.0, map, options)?;
