@@ -39,15 +39,7 @@ fn cube() -> Quads {
             DVec3::new(x, y, z)
         })
         .collect();
-    let faces = vec![
-        [0, 3, 2, 1],
-        [4, 5, 6, 7],
-        [0, 1, 5, 4],
-        [1, 2, 6, 5],
-        [2, 3, 7, 6],
-        [3, 0, 4, 7],
-    ];
-    (positions, faces)
+    (positions, qm_lift::synthetic::cube().faces().to_vec())
 }
 
 /// An `a x b` torus.
