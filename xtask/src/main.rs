@@ -11,6 +11,9 @@
 //!   mesh (default: the bundled meshes in `assets/`), measured as surface
 //!   distance to the input; writes `rd.csv`, `table1.md`, `summary.md`,
 //!   `rd.svg` and `rd.png` (default into `target/rd/`). See [`rd`].
+//! - `remesh-bench [MESH ...]`: remesh time and peak memory per mesh, each in
+//!   a process of its own (default: the bunny and a generated 500k-vertex
+//!   torus). See [`remesh_bench`].
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -19,6 +22,7 @@ use qm::{DecodeOptions, EncodeOptions};
 
 mod plot;
 mod rd;
+mod remesh_bench;
 
 const PASSES: [u32; 6] = [2, 4, 6, 8, 10, 12];
 
@@ -27,8 +31,10 @@ fn main() -> ExitCode {
     let result = match args.first().map(String::as_str) {
         Some("pass-table") => pass_table(&args[1..]),
         Some("rd-curve") => rd::run(&args[1..]),
+        Some("remesh-bench") => remesh_bench::run(&args[1..]),
         _ => Err("usage: cargo xtask pass-table [MESH ...]\n       \
-                  cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]"
+                  cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]\n       \
+                  cargo xtask remesh-bench [MESH ...]"
             .to_string()),
     };
     match result {
