@@ -82,6 +82,9 @@ pub struct Disk {
     pub boundary_edges: Vec<(u32, bool)>,
     /// The mesh vertex of each disk vertex.
     pub origin: Vec<u32>,
+    /// The parameterization matrix's symbolic factorization: its pattern
+    /// depends only on the disk, so every solve on this disk shares it.
+    pub symbolic: std::sync::OnceLock<faer::sparse::linalg::solvers::SymbolicLu<usize>>,
 }
 
 /// Cuts `mesh` (one connected, manifold, oriented component) into a disk,
@@ -289,6 +292,7 @@ fn open(mesh: &TriMesh, topo: &Topology, cut: &[bool]) -> Disk {
             boundary,
             boundary_edges,
             origin,
+            symbolic: Default::default(),
         };
     };
     let mut h = start;
@@ -335,6 +339,7 @@ fn open(mesh: &TriMesh, topo: &Topology, cut: &[bool]) -> Disk {
         boundary,
         boundary_edges,
         origin,
+        symbolic: Default::default(),
     }
 }
 

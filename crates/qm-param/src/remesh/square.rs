@@ -17,6 +17,7 @@
 
 use faer::Mat;
 use faer::prelude::*;
+use faer::sparse::linalg::solvers::{Lu, SymbolicLu};
 use faer::sparse::{SparseColMat, Triplet};
 use qm_lift::glam::{DVec2, DVec3};
 
@@ -387,9 +388,17 @@ fn solve(disk: &Disk, weights: &[Vec<(u32, f64)>], fixed: &[bool], uv: &mut [DVe
     }
     let matrix = SparseColMat::<usize, f64>::try_new_from_triplets(free, free, &triplets)
         .map_err(|e| Error::Remesh(format!("assembling the parameterization: {e:?}")))?;
-    let lu = matrix
-        .sp_lu()
-        .map_err(|e| Error::Remesh(format!("factoring the parameterization: {e:?}")))?;
+    let fail =
+        |e: &dyn std::fmt::Debug| Error::Remesh(format!("factoring the parameterization: {e:?}"));
+    let symbolic = match disk.symbolic.get() {
+        Some(symbolic) => symbolic.clone(),
+        None => {
+            let symbolic = SymbolicLu::try_new(matrix.symbolic()).map_err(|e| fail(&e))?;
+            let _ = disk.symbolic.set(symbolic.clone());
+            symbolic
+        }
+    };
+    let lu = Lu::try_new_with_symbolic(symbolic, matrix.as_ref()).map_err(|e| fail(&e))?;
     let x = lu.solve(&rhs);
     for v in 0..n {
         if !fixed[v] {
