@@ -107,3 +107,48 @@ fn holes_stay_holes() {
     assert_eq!(euler, -1, "genus 1 with one hole");
     assert!(boundary > 0);
 }
+
+/// Messy input: two components, a non-manifold fan of three triangles on one
+/// edge, a zero-area triangle and an unused vertex. Clean-up splits and drops
+/// what it must, and every component comes out as its own closed or open
+/// patch.
+#[test]
+fn messy_input_remeshes() {
+    let a = torus(24, 12);
+    let mut positions = a.positions.clone();
+    let mut faces: Vec<Vec<u32>> = a.faces().map(<[u32]>::to_vec).collect();
+    // A second torus, moved away.
+    let offset = positions.len() as u32;
+    positions.extend(a.positions.iter().map(|p| *p + DVec3::new(10.0, 0.0, 0.0)));
+    faces.extend(a.faces().map(|f| f.iter().map(|v| v + offset).collect()));
+    // Three triangles sharing the edge (e0, e1), away from both tori.
+    let e = positions.len() as u32;
+    positions.extend([
+        DVec3::new(0.0, 10.0, 0.0),
+        DVec3::new(1.0, 10.0, 0.0),
+        DVec3::new(0.5, 11.0, 0.0),
+        DVec3::new(0.5, 10.0, 1.0),
+        DVec3::new(0.5, 9.0, 0.0),
+    ]);
+    faces.extend([
+        vec![e, e + 1, e + 2],
+        vec![e, e + 1, e + 3],
+        vec![e, e + 1, e + 4],
+    ]);
+    // A zero-area triangle and an unused vertex.
+    faces.push(vec![e, e + 1, e]);
+    positions.push(DVec3::new(5.0, 5.0, 5.0));
+    let mut input = PolyMesh::new();
+    input.positions = positions;
+    for f in &faces {
+        input.push_face(f);
+    }
+    let r = qm::remesh(&input, &RemeshOptions::DEFAULT).unwrap();
+    assert_eq!(r.clean.to_string().lines().count(), 1, "one summary line");
+    // Two tori and the three triangles of the split fan.
+    assert_eq!(r.components.len(), 5, "{}", r.clean);
+    let layout = r.mesh.layout();
+    let out = PolyMesh::from_faces(r.mesh.positions().to_vec(), &layout.quads(layout.level()));
+    // Two closed tori (Euler 0 each) and three open disks (Euler 1 each).
+    assert_eq!(topology(&out).0, 3);
+}
