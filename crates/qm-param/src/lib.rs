@@ -5,7 +5,11 @@
 //! taken as it is: [`detect_subdivision`] undoes the splitting level by level
 //! and returns the coarsest base mesh with the input as its finest level, a
 //! [`SemiRegularMesh`], plus which input vertex each sample is ([`Detected`]).
-//! Meshes without that connectivity need remeshing.
+//! Any other mesh is remeshed: [`clean::clean`] repairs it and splits it into
+//! components, and [`remesh()`] cuts each component open into a disk, maps it
+//! onto a square and resamples it as `K x K` base quads refined `L` times,
+//! with the cut's sides glued so the result has no seams ([`Remeshed`],
+//! [`RemeshOptions`]).
 //!
 //! [`distance`] measures how far two surfaces are apart (RMS, mean and
 //! Hausdorff distance and PSNR, as Metro does), to judge a remeshed or
