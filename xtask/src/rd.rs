@@ -4,7 +4,7 @@
 //! decodes pass counts and log-spaced byte prefixes of that one stream; Draco
 //! encodes the same surface at a range of quantization bits. Every
 //! reconstruction is measured against the original input with Metro's
-//! symmetric surface distance ([`qm::param::distance`]), so both coders are
+//! symmetric surface distance ([`qm::param::distance()`]), so both coders are
 //! judged by the same yardstick, whatever their vertices.
 
 use std::fmt::Write as _;

@@ -11,7 +11,7 @@
 //! with the cut's sides glued so the result has no seams ([`Remeshed`],
 //! [`RemeshOptions`]).
 //!
-//! [`distance`] measures how far two surfaces are apart (RMS, mean and
+//! [`distance()`] measures how far two surfaces are apart (RMS, mean and
 //! Hausdorff distance and PSNR, as Metro does), to judge a remeshed or
 //! decoded mesh against its input.
 //!

@@ -57,7 +57,7 @@ impl ZeroTree {
     /// base vertices).
     ///
     /// One breadth-first pass: each node keeps its face-local grid position,
-    /// from which its children follow directly (see [`Self::children_of`]).
+    /// from which its children follow directly (see `children_of`).
     pub fn new(layout: &Layout) -> Self {
         let big_l = layout.level();
         let samples = layout.sample_count();

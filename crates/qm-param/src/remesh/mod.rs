@@ -1,9 +1,9 @@
 //! Remeshing any triangle mesh into a semi-regular quad mesh.
 //!
 //! Per connected component, after clean-up ([`crate::clean`]):
-//! 1. cut it open into a disk ([`cut`]): boundaries, `2g` loops for genus `g`
+//! 1. cut it open into a disk (module `cut`): boundaries, `2g` loops for genus `g`
 //!    and paths joining them, or one long path on a closed sphere;
-//! 2. map the disk onto the unit square ([`square`]): boundary by arc length
+//! 2. map the disk onto the unit square (module `square`): boundary by arc length
 //!    with the two sides of every cut given equal lengths, interior by
 //!    mean-value coordinates, then stretch-reweighted;
 //! 3. add cuts from the points of highest stretch to the cut (Gu, Gortler
