@@ -9,7 +9,10 @@
 //!
 //! **Passes.** Plane `P` runs from `T0 = floor(log2 max weighted |c|)` down
 //! to 0, one pass per plane (the paper's halving thresholds; its garbled T0
-//! formula becomes this). A pass has two phases:
+//! formula becomes this). A pass goes through the levels coarse to fine; at
+//! each level it codes first the *subordinate* bits, then the *dominant* ones:
+//! - *subordinate*: one refinement bit for every coordinate of the level that
+//!   was already significant before the pass;
 //! - *dominant*: the trees are scanned breadth first, coarse to fine. A node
 //!   is visited when it is a root or its parent's subtree has been opened.
 //!   For a visited node, each not yet significant coordinate gets a
@@ -20,8 +23,6 @@
 //!   good (set partitioning as in SPIHT, so it is never coded again) and the
 //!   children are visited in this same pass. A node with insignificant
 //!   coordinates and an open subtree is EZW's isolated zero.
-//! - *subordinate*: one refinement bit for every coordinate that was already
-//!   significant before the pass.
 //!
 //! All three coordinates share the tree: one pass refines x, y and z.
 //!
@@ -323,9 +324,9 @@ impl State {
     /// One pass; `pass` 0 is the top plane. Level by level, coarse to fine:
     /// first the refinement bits of the level's coefficients that were
     /// significant before the pass, then its significance and zerotree bits.
-    /// Refining the coarse levels before the fine ones become significant
-    /// keeps the error from rising inside a pass: a fine detail revealed over
-    /// a still-coarse parent can undo an accidental cancellation.
+    /// (Against the classic order, all refinement after the whole dominant
+    /// phase, this moves the small error rises inside a pass around without
+    /// removing them; see the README.)
     fn pass<C: Coder, O: Oracle>(
         &mut self,
         tree: &ZeroTree,
