@@ -35,6 +35,12 @@ impl Default for Context {
 }
 
 impl Context {
+    /// Where `range` splits: the part below codes a 0, the rest a 1.
+    #[inline]
+    fn split(&self, range: u32) -> u32 {
+        (range >> PROB_BITS) * self.p0 as u32
+    }
+
     #[inline]
     fn update(&mut self, bit: bool) {
         // Adaptation rate 1/2^shift: 1/4 for the first symbols, down to 1/64.
@@ -84,7 +90,7 @@ impl BitWriter {
     /// Encodes `bit` with the adaptive model `ctx`.
     #[inline]
     pub fn encode(&mut self, ctx: &mut Context, bit: bool) {
-        let bound = (self.range >> PROB_BITS) * ctx.p0 as u32;
+        let bound = ctx.split(self.range);
         if bit {
             self.low += bound as u64;
             self.range -= bound;
@@ -184,7 +190,7 @@ impl<'a> BitReader<'a> {
         if self.truncated {
             return Err(Truncated);
         }
-        let bound = (self.range >> PROB_BITS) * ctx.p0 as u32;
+        let bound = ctx.split(self.range);
         let bit = self.code >= bound;
         if bit {
             self.code -= bound;

@@ -220,6 +220,16 @@ impl BaseMesh {
         self.regular[v as usize]
     }
 
+    /// Number of samples (distinct vertices) once every face is refined
+    /// `level` times: base vertices, `2^level - 1` per edge and
+    /// `(2^level - 1)^2` per face. Computed, not allocated.
+    pub fn sample_count(&self, level: u32) -> u64 {
+        let inner = (1u64 << level.min(63)) - 1;
+        self.vertex_count as u64
+            + self.edges.len() as u64 * inner
+            + self.faces.len() as u64 * inner * inner
+    }
+
     /// Number of boundary edges.
     pub fn boundary_edge_count(&self) -> usize {
         self.edges.iter().filter(|e| e.is_boundary()).count()

@@ -64,7 +64,7 @@ impl Layout {
         let v = base.vertex_count() as u64;
         let e = base.edges().len() as u64;
         let f = base.faces().len() as u64;
-        let samples = v + e * (n - 1) + f * (n - 1) * (n - 1);
+        let samples = base.sample_count(level);
         let grid_len = f * (n + 1) * (n + 1);
         if samples > MAX_SAMPLES || grid_len > 2 * MAX_SAMPLES {
             return Err(Error::TooManySamples {

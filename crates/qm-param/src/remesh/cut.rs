@@ -27,6 +27,10 @@ pub struct Topology {
     pub edge_faces: Vec<[u32; 2]>,
     /// The edge of each triangle side `k` (from corner `k` to `k + 1`).
     pub face_edges: Vec<[u32; 3]>,
+    /// The edge joining two vertices, by `(min, max)` vertex pair.
+    index: HashMap<(u32, u32), u32>,
+    /// The vertices joined to each vertex by an edge.
+    neighbours: Vec<Vec<u32>>,
 }
 
 impl Topology {
@@ -55,11 +59,23 @@ impl Topology {
             }
             face_edges.push(fe);
         }
+        let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); mesh.positions.len()];
+        for &[a, b] in &edges {
+            neighbours[a as usize].push(b);
+            neighbours[b as usize].push(a);
+        }
         Topology {
             edges,
             edge_faces,
             face_edges,
+            index,
+            neighbours,
         }
+    }
+
+    /// The edge joining vertices `a` and `b`, if there is one.
+    fn edge(&self, a: u32, b: u32) -> Option<u32> {
+        self.index.get(&(a.min(b), a.max(b))).copied()
     }
 
     /// The face across edge `e` from face `f`.
@@ -109,27 +125,15 @@ pub fn cut_to_disk(mesh: &TriMesh, topo: &Topology, extra: &[Vec<u32>]) -> Disk 
     }
     let mut cut: Vec<bool> = in_tree.iter().map(|&t| !t).collect();
     prune(topo, &mut cut, vertices);
-    let mut edge_of: HashMap<(u32, u32), u32> = HashMap::new();
-    let mut key_of = |a: u32, b: u32| -> Option<u32> {
-        if edge_of.is_empty() {
-            for (e, &[x, y]) in topo.edges.iter().enumerate() {
-                edge_of.insert((x, y), e as u32);
-            }
-        }
-        edge_of.get(&(a.min(b), a.max(b))).copied()
+    // Closed genus 0 prunes to nothing: cut along a longest shortest path.
+    let longest = if cut.contains(&true) {
+        None
+    } else {
+        Some(longest_path(mesh, topo))
     };
-    if !cut.iter().any(|&c| c) {
-        // Closed genus 0: cut along a longest shortest path.
-        let path = longest_path(mesh, topo);
+    for path in longest.iter().chain(extra) {
         for w in path.windows(2) {
-            if let Some(e) = key_of(w[0], w[1]) {
-                cut[e as usize] = true;
-            }
-        }
-    }
-    for path in extra {
-        for w in path.windows(2) {
-            if let Some(e) = key_of(w[0], w[1]) {
+            if let Some(e) = topo.edge(w[0], w[1]) {
                 cut[e as usize] = true;
             }
         }
@@ -173,11 +177,6 @@ fn prune(topo: &Topology, cut: &mut [bool], vertices: usize) {
 /// Dijkstra distances (edge lengths) from `source`, with predecessors.
 pub fn shortest_paths(mesh: &TriMesh, topo: &Topology, source: u32) -> (Vec<f64>, Vec<u32>) {
     let n = mesh.positions.len();
-    let mut adjacency: Vec<Vec<u32>> = vec![Vec::new(); n];
-    for &[a, b] in &topo.edges {
-        adjacency[a as usize].push(b);
-        adjacency[b as usize].push(a);
-    }
     let mut dist = vec![f64::INFINITY; n];
     let mut pred = vec![NONE; n];
     let mut heap = std::collections::BinaryHeap::new();
@@ -187,7 +186,7 @@ pub fn shortest_paths(mesh: &TriMesh, topo: &Topology, source: u32) -> (Vec<f64>
         if d > dist[v as usize] {
             continue;
         }
-        for &w in &adjacency[v as usize] {
+        for &w in &topo.neighbours[v as usize] {
             let nd = d + mesh.positions[v as usize].distance(mesh.positions[w as usize]);
             if nd < dist[w as usize] {
                 dist[w as usize] = nd;

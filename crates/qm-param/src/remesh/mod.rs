@@ -269,13 +269,11 @@ fn chart(
         };
         let from = disk.origin[worst];
         let (dist, pred) = cut::shortest_paths(mesh, &topo, from);
-        let Some(&to) = disk
+        let Some(to) = disk
             .boundary
             .iter()
             .map(|&b| disk.origin[b as usize])
-            .collect::<Vec<_>>()
-            .iter()
-            .min_by(|&&a, &&b| dist[a as usize].total_cmp(&dist[b as usize]))
+            .min_by(|&a, &b| dist[a as usize].total_cmp(&dist[b as usize]))
         else {
             break;
         };

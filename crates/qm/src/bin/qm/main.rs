@@ -360,9 +360,7 @@ fn info(input: &Path, json: bool) -> Result<(), Failure> {
         weight_bits: h.weight_bits,
         base_vertices: h.base_vertices,
         base_faces: h.base_faces,
-        vertices: h.base_vertices as u64
-            + base.edges().len() as u64 * (n - 1)
-            + faces * (n - 1) * (n - 1),
+        vertices: base.sample_count(h.level as u32),
         faces: faces * n * n,
         bbox_min: h.origin,
         step: h.step,
