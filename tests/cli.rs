@@ -149,7 +149,11 @@ fn bad_input_fails_with_one_line_and_exit_1() {
         "not a .qm",
     );
     assert!(!d.join("x.obj").exists());
-    assert_fails_cleanly(&qm(&["info", "missing.qm"], d), "missing.qm", "No such file");
+    assert_fails_cleanly(
+        &qm(&["info", "missing.qm"], d),
+        "missing.qm",
+        "No such file",
+    );
     // A triangle is remeshed; a triangle with no area leaves nothing to remesh.
     std::fs::write(d.join("tri.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
     assert!(qm(&["compress", "tri.obj", "--quiet"], d).status.success());

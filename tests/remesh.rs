@@ -25,7 +25,7 @@ fn topology(mesh: &PolyMesh) -> (i64, usize) {
 fn remeshed(input: &PolyMesh) -> PolyMesh {
     let r = qm::remesh(input, &RemeshOptions::DEFAULT).unwrap();
     let layout = r.mesh.layout();
-    assert!(r.components.iter().all(|c| c.uncovered == 0));
+    assert!(r.report.components.iter().all(|c| c.uncovered == 0));
     PolyMesh::from_faces(r.mesh.positions().to_vec(), &layout.quads(layout.level()))
 }
 
@@ -144,9 +144,13 @@ fn messy_input_remeshes() {
         input.push_face(f);
     }
     let r = qm::remesh(&input, &RemeshOptions::DEFAULT).unwrap();
-    assert_eq!(r.clean.to_string().lines().count(), 1, "one summary line");
+    assert_eq!(
+        r.report.clean.to_string().lines().count(),
+        1,
+        "one summary line"
+    );
     // Two tori and the three triangles of the split fan.
-    assert_eq!(r.components.len(), 5, "{}", r.clean);
+    assert_eq!(r.report.components.len(), 5, "{}", r.report.clean);
     let layout = r.mesh.layout();
     let out = PolyMesh::from_faces(r.mesh.positions().to_vec(), &layout.quads(layout.level()));
     // Two closed tori (Euler 0 each) and three open disks (Euler 1 each).

@@ -30,6 +30,6 @@ pub use distance::{DistanceOptions, DistanceReport, OneSided, Side, distance};
 pub use error::{Error, Result};
 pub use qm_io::PolyMesh;
 pub use qm_lift::SemiRegularMesh;
-pub use remesh::{RemeshOptions, Remeshed, remesh};
+pub use remesh::{RemeshOptions, RemeshReport, Remeshed, remesh};
 pub use subdivision::{Detected, detect_subdivision};
 pub use trimesh::{TriMesh, triangle_area};

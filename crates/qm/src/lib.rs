@@ -37,7 +37,7 @@ pub use qm_io::{
     Compressed, DecodeOptions, Decompressed, EncodeOptions, Limits, PolyMesh, UpdateRule, Weighting,
 };
 pub use qm_lift::SemiRegularMesh;
-pub use qm_param::{Detected, RemeshOptions, Remeshed};
+pub use qm_param::{Detected, RemeshOptions, RemeshReport, Remeshed};
 
 /// Reads a mesh file (OBJ, PLY, OFF or STL).
 pub fn read_mesh(path: &std::path::Path) -> Result<PolyMesh> {
@@ -67,7 +67,7 @@ pub struct Prepared {
     /// For a quad mesh taken as it is: the input vertex of each sample.
     pub source: Option<Vec<u32>>,
     /// For a remeshed input: what the remesher did.
-    pub remeshed: Option<Remeshed>,
+    pub remeshed: Option<RemeshReport>,
 }
 
 /// Turns any input mesh into a semi-regular quad mesh: a quad mesh with
@@ -88,9 +88,9 @@ pub fn prepare(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Prepared> {
     }
     let r = qm_param::remesh(mesh, options)?;
     Ok(Prepared {
-        mesh: r.mesh.clone(),
+        mesh: r.mesh,
         source: None,
-        remeshed: Some(r),
+        remeshed: Some(r.report),
     })
 }
 

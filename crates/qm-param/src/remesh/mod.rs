@@ -107,10 +107,19 @@ pub struct ComponentReport {
 pub struct Remeshed {
     /// The semi-regular mesh.
     pub mesh: SemiRegularMesh,
+    /// What the remesher did.
+    pub report: RemeshReport,
+}
+
+/// What the remesher did: clean-up and each component's chart.
+#[derive(Clone, Debug)]
+pub struct RemeshReport {
     /// The clean-up summary.
     pub clean: CleanReport,
     /// Per component.
     pub components: Vec<ComponentReport>,
+    /// The subdivision level chosen.
+    pub level: u32,
 }
 
 /// Remeshes `mesh` into a semi-regular quad mesh.
@@ -210,8 +219,11 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     let (mesh, _) = SemiRegularMesh::from_face_grids(layout, &grids, &positions)?;
     Ok(Remeshed {
         mesh,
-        clean: cleaned.report,
-        components: reports,
+        report: RemeshReport {
+            clean: cleaned.report,
+            components: reports,
+            level,
+        },
     })
 }
 

@@ -235,7 +235,7 @@ fn remesh(
     qm::write_mesh(&output, &out).map_err(|e| Failure::about(&output, e))?;
     progress.finish();
     if !quiet {
-        report_remesh(input, &remeshed);
+        report_remesh(input, &remeshed.report);
         eprintln!(
             "-> {}: {} vertices, {} quads",
             output.display(),
@@ -247,18 +247,12 @@ fn remesh(
 }
 
 /// The clean-up line and one line per component.
-fn report_remesh(input: &Path, r: &qm::Remeshed) {
+fn report_remesh(input: &Path, r: &qm::RemeshReport) {
     eprintln!("{}: {}", input.display(), r.clean);
-    let layout = r.mesh.layout();
     for (i, c) in r.components.iter().enumerate() {
         eprintln!(
             "  component {i}: {} vertices -> {} base quads x level {}, {} extra cuts, stretch {:.3}, {} flipped",
-            c.vertices,
-            c.base_quads,
-            layout.level(),
-            c.extra_cuts,
-            c.stretch,
-            c.flipped
+            c.vertices, c.base_quads, r.level, c.extra_cuts, c.stretch, c.flipped
         );
     }
 }
