@@ -258,44 +258,143 @@ pub fn decompress(bytes: &[u8], options: &DecodeOptions) -> Result<Decompressed>
     let bytes = &bytes[..options
         .max_bytes
         .map_or(bytes.len(), |m| m.min(bytes.len()))];
-    let c = container::read(bytes, &options.limits)?;
-    let h = &c.header;
-    let base = BaseMesh::new(h.base_vertices, c.base.faces.clone())?;
-    let layout = Layout::new(base, h.level as u32)?;
-    let tree = ZeroTree::new(&layout);
-    let params = StreamParams {
-        planes: h.planes as u32,
-        passes: h.passes as u32,
-        weighting: Weighting {
-            bits_per_level: h.weight_bits as u32,
-        },
-    };
-    let decoded = qm_ezw::decode(&tree, params, c.stream, options.passes);
-    let mut values = vec![[0; 3]; layout.sample_count()];
-    values[..c.base.values.len()].copy_from_slice(&c.base.values);
-    tree.scatter(&decoded.coefs, &mut values);
-    let level = options
-        .level
-        .map_or(layout.level(), |l| l.min(layout.level()));
-    let update = qm_lift::UpdateRule::from_code(h.update).expect("checked by the container");
-    Lifting::new(&layout, update).inverse_to(&mut values, level);
-    let quantizer = Quantizer {
-        bits: h.bits as u32,
-        origin: h.origin,
-        step: h.step,
-    };
+    let decoder = Decoder::new(bytes, &options.limits)?;
+    let mut values = Vec::new();
+    let status = decoder.decode_into(
+        &bytes[decoder.stream_start()..],
+        options.passes,
+        options.level,
+        &mut values,
+    );
+    let Decoder {
+        header,
+        layout,
+        quantizer,
+        header_bytes,
+        base_bytes,
+        ..
+    } = decoder;
     Ok(Decompressed {
         values,
         quantizer,
-        level,
-        header: c.header.clone(),
-        passes: decoded.passes,
-        truncated: decoded.truncated,
-        header_bytes: c.header_bytes,
-        base_bytes: c.base_bytes,
-        stream_bytes: c.stream.len(),
+        level: status.level,
+        header,
+        passes: status.passes,
+        truncated: status.truncated,
+        header_bytes,
+        base_bytes,
+        stream_bytes: bytes.len() - header_bytes - base_bytes,
         layout,
     })
+}
+
+/// A parsed header and base mesh, ready to decode stream prefixes again and
+/// again: a viewer that receives a file in pieces builds the layout and the
+/// trees once and decodes each longer prefix with [`Decoder::decode_into`].
+#[derive(Clone, Debug)]
+pub struct Decoder {
+    header: Header,
+    base_values: Vec<Coord>,
+    layout: Layout,
+    tree: ZeroTree,
+    params: StreamParams,
+    update: UpdateRule,
+    quantizer: Quantizer,
+    header_bytes: usize,
+    base_bytes: usize,
+}
+
+/// What one call of [`Decoder::decode_into`] achieved.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct DecodeStatus {
+    /// The level reconstructed.
+    pub level: u32,
+    /// Passes decoded completely.
+    pub passes: u32,
+    /// Whether the stream ended before the passes asked for.
+    pub truncated: bool,
+}
+
+impl Decoder {
+    /// Parses the header and base mesh at the start of `bytes` (a file or
+    /// any prefix of it that holds the base section).
+    pub fn new(bytes: &[u8], limits: &Limits) -> Result<Self> {
+        let c = container::read(bytes, limits)?;
+        let h = c.header;
+        let base = BaseMesh::new(h.base_vertices, c.base.faces)?;
+        let layout = Layout::new(base, h.level as u32)?;
+        let tree = ZeroTree::new(&layout);
+        let params = StreamParams {
+            planes: h.planes as u32,
+            passes: h.passes as u32,
+            weighting: Weighting {
+                bits_per_level: h.weight_bits as u32,
+            },
+        };
+        let update = UpdateRule::from_code(h.update).expect("checked by the container");
+        let quantizer = Quantizer {
+            bits: h.bits as u32,
+            origin: h.origin,
+            step: h.step,
+        };
+        Ok(Decoder {
+            header: h,
+            base_values: c.base.values,
+            layout,
+            tree,
+            params,
+            update,
+            quantizer,
+            header_bytes: c.header_bytes,
+            base_bytes: c.base_bytes,
+        })
+    }
+
+    /// Offset of the embedded stream in the file.
+    pub fn stream_start(&self) -> usize {
+        self.header_bytes + self.base_bytes
+    }
+
+    /// The header.
+    pub fn header(&self) -> &Header {
+        &self.header
+    }
+
+    /// The sample layout (finest level).
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    /// The quantizer of the header.
+    pub fn quantizer(&self) -> &Quantizer {
+        &self.quantizer
+    }
+
+    /// Decodes `stream` (the bytes after [`Self::stream_start`], cut
+    /// anywhere) up to `passes` passes and reconstructs `level` (default: the
+    /// finest) into `values`, one quantized value per sample id; at a level
+    /// below the finest only that level's samples hold positions.
+    pub fn decode_into(
+        &self,
+        stream: &[u8],
+        passes: Option<u32>,
+        level: Option<u32>,
+        values: &mut Vec<Coord>,
+    ) -> DecodeStatus {
+        let decoded = qm_ezw::decode(&self.tree, self.params, stream, passes);
+        values.clear();
+        values.resize(self.layout.sample_count(), [0; 3]);
+        values[..self.base_values.len()].copy_from_slice(&self.base_values);
+        self.tree.scatter(&decoded.coefs, values);
+        let level = level.map_or(self.layout.level(), |l| l.min(self.layout.level()));
+        Lifting::new(&self.layout, self.update).inverse_to(values, level);
+        DecodeStatus {
+            level,
+            passes: decoded.passes,
+            truncated: decoded.truncated,
+        }
+    }
 }
 
 #[cfg(test)]

@@ -15,7 +15,10 @@ mod error;
 pub mod mesh;
 mod polymesh;
 
-pub use codec::{Compressed, DecodeOptions, Decompressed, EncodeOptions, compress, decompress};
+pub use codec::{
+    Compressed, DecodeOptions, DecodeStatus, Decoder, Decompressed, EncodeOptions, compress,
+    decompress,
+};
 pub use container::Limits;
 pub use error::{Error, Result};
 pub use polymesh::PolyMesh;
