@@ -181,3 +181,22 @@ fn lossless_on_valence_6_and_two_components() {
         assert!(d.values.iter().all(|v| v.iter().all(|c| c.abs() < 1 << 20)));
     }
 }
+
+/// A version 1 stream (details in world axes, written before local frames
+/// existed; `tests/data/holed_grid_v1.qm` is `qm compress
+/// assets/quad/holed_grid_l4.obj` from that build) still decodes, exactly.
+#[test]
+fn version_1_streams_still_decode() {
+    let v1 = std::fs::read(asset("../tests/data/holed_grid_v1.qm")).unwrap();
+    assert_eq!(v1[4], 1, "a version 1 file");
+    let old = qm::decompress(&v1, &DecodeOptions::default()).unwrap();
+    assert_eq!((old.header.frames, old.header.normal_bits), (0, 0));
+    let input = qm::read_mesh(&asset("quad/holed_grid_l4.obj")).unwrap();
+    let prepared = qm::detect(&input).unwrap();
+    let new = qm::compress(&prepared.mesh, &EncodeOptions::DEFAULT).unwrap();
+    assert_eq!(new.bytes[4], qm::io::container::VERSION);
+    assert_eq!(old.values, new.quantized);
+    // Cut, it decodes too, to something coarser.
+    let cut = qm::decompress(&v1[..700], &DecodeOptions::default()).unwrap();
+    assert!(cut.truncated && cut.values != old.values);
+}

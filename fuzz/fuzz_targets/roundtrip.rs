@@ -31,6 +31,7 @@ fuzz_target!(|data: &[u8]| {
     };
     let weighting = Weighting {
         bits_per_level: u32::from(byte(2) / 3) % 3,
+        normal_bits: u32::from(byte(2) / 9) % 4,
     };
     let scale = 2f64.powi(i32::from(byte(3) % 41) - 20);
     let prefix = usize::from(u16::from_le_bytes([byte(4), byte(5)]));
@@ -54,7 +55,8 @@ fuzz_target!(|data: &[u8]| {
     let options = EncodeOptions::DEFAULT
         .with_bits(bits)
         .with_update(update)
-        .with_weighting(weighting);
+        .with_weighting(weighting)
+        .with_frames(byte(3) & 0x80 != 0);
     let compressed = match qm::compress(&mesh, &options) {
         Ok(c) => c,
         // Refusing a degenerate mesh is allowed; panicking is not.

@@ -14,12 +14,15 @@
 //! - `remesh-bench [MESH ...]`: remesh time and peak memory per mesh, each in
 //!   a process of its own (default: the bunny and a generated 500k-vertex
 //!   torus). See [`remesh_bench`].
+//! - `ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC]`: two encoder settings
+//!   compared at equal bytes on the same remeshed models. See [`ab`].
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use qm::{DecodeOptions, EncodeOptions};
 
+mod ab;
 mod plot;
 mod rd;
 mod remesh_bench;
@@ -32,9 +35,11 @@ fn main() -> ExitCode {
         Some("pass-table") => pass_table(&args[1..]),
         Some("rd-curve") => rd::run(&args[1..]),
         Some("remesh-bench") => remesh_bench::run(&args[1..]),
+        Some("ab") => ab::run(&args[1..]),
         _ => Err("usage: cargo xtask pass-table [MESH ...]\n       \
                   cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]\n       \
-                  cargo xtask remesh-bench [MESH ...]"
+                  cargo xtask remesh-bench [MESH ...]\n       \
+                  cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--out FILE]"
             .to_string()),
     };
     match result {

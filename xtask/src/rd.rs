@@ -205,7 +205,7 @@ fn parse_args(args: &[String]) -> Result<Args, String> {
 }
 
 /// The mesh files directly inside `dir`, sorted.
-fn mesh_files(dir: &Path) -> Result<Vec<PathBuf>, String> {
+pub fn mesh_files(dir: &Path) -> Result<Vec<PathBuf>, String> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
         .map_err(|e| format!("{}: {e}", dir.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))
@@ -299,14 +299,14 @@ pub fn run(args: &[String]) -> Result<(), String> {
     Ok(())
 }
 
-fn file_name(file: &Path) -> String {
+pub fn file_name(file: &Path) -> String {
     file.file_name().map_or_else(
         || file.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     )
 }
 
-fn measure(input: &PolyMesh, recon: &PolyMesh) -> Result<DistanceReport, String> {
+pub fn measure(input: &PolyMesh, recon: &PolyMesh) -> Result<DistanceReport, String> {
     distance(
         input,
         recon,

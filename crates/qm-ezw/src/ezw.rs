@@ -44,24 +44,41 @@ use crate::range::{BitReader, BitWriter, Context, Truncated};
 /// A coefficient: three integer coordinates.
 pub type Coef = [i32; 3];
 
-/// How coefficients are weighted across levels.
+/// How coefficients are weighted across levels and coordinates.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Weighting {
     /// Extra bits of weight per level coarser than the finest (1 = the L2
     /// norm of the basis functions; 0 = all levels alike).
     pub bits_per_level: u32,
+    /// Extra bits of weight of the first coordinate: with details in local
+    /// frames (normal first) this codes the normal component that many
+    /// passes ahead of the tangential ones.
+    pub normal_bits: u32,
 }
 
 impl Default for Weighting {
     fn default() -> Self {
-        Weighting { bits_per_level: 1 }
+        Weighting::LEVELS
     }
 }
 
 impl Weighting {
+    /// One bit per level, coordinates alike.
+    pub const LEVELS: Weighting = Weighting {
+        bits_per_level: 1,
+        normal_bits: 0,
+    };
+
+    /// Sets the normal weight.
+    pub const fn with_normal_bits(mut self, bits: u32) -> Self {
+        self.normal_bits = bits;
+        self
+    }
+
+    /// Weight in bits of coordinate `coord` of a level-`level` coefficient.
     #[inline]
-    fn shift(self, level: u32, max_level: u32) -> u32 {
-        self.bits_per_level * (max_level - level)
+    fn shift(self, level: u32, coord: usize, max_level: u32) -> u32 {
+        self.bits_per_level * (max_level - level) + if coord == 0 { self.normal_bits } else { 0 }
     }
 }
 
@@ -112,12 +129,13 @@ pub fn encode(
     let big_l = tree.max_level();
     let levels = tree.levels();
     let weighted_top = |k: usize| -> i32 {
-        let m = coefs[k].iter().map(|c| c.unsigned_abs()).max().unwrap_or(0);
-        if m == 0 {
-            -1
-        } else {
-            (31 - m.leading_zeros() + weighting.shift(levels[k] as u32, big_l)) as i32
-        }
+        (0..3)
+            .map(|c| match coefs[k][c].unsigned_abs() {
+                0 => -1,
+                m => (31 - m.leading_zeros() + weighting.shift(levels[k] as u32, c, big_l)) as i32,
+            })
+            .max()
+            .unwrap_or(-1)
     };
     // Highest weighted plane below each node.
     let mut below = vec![-1i32; tree.len()];
@@ -315,10 +333,11 @@ impl State {
         }
     }
 
-    /// Bit plane of a level-`level` coefficient coded in global plane `plane`.
+    /// Bit plane of coordinate `coord` of a level-`level` coefficient coded
+    /// in global plane `plane`.
     #[inline]
-    fn own_plane(&self, plane: i32, level: u32) -> i32 {
-        plane - self.params.weighting.shift(level, self.max_level) as i32
+    fn own_plane(&self, plane: i32, level: u32, coord: usize) -> i32 {
+        plane - self.params.weighting.shift(level, coord, self.max_level) as i32
     }
 
     /// One pass; `pass` 0 is the top plane. Level by level, coarse to fine:
@@ -375,11 +394,11 @@ impl State {
                 let level = levels[k] as u32;
                 let kind = kinds[k] as usize;
                 let class = level_class(level, self.max_level);
-                let b = self.own_plane(plane, level);
-                if b >= 0 && self.sig[k] != 0b111 {
+                if self.sig[k] != 0b111 {
                     let parent = parents[k];
                     for c in 0..3 {
-                        if self.sig[k] & (1 << c) != 0 {
+                        let b = self.own_plane(plane, level, c);
+                        if b < 0 || self.sig[k] & (1 << c) != 0 {
                             continue;
                         }
                         let parent_state = if parent == NO_PARENT {
@@ -475,14 +494,18 @@ impl State {
         coder: &mut C,
         oracle: &mut O,
     ) -> Result<(), Truncated> {
-        let b = self.own_plane(plane, level);
-        if b < 0 {
+        let planes: [i32; 3] = std::array::from_fn(|c| self.own_plane(plane, level, c));
+        if planes.iter().all(|&b| b < 0) {
             // Every coordinate of this level is exact.
             return Ok(());
         }
         let models = &mut self.models.refine;
         for e in &mut self.refine_lists[level as usize - 1][..count] {
             let (k, c) = (e.node as usize, e.coord as usize);
+            let b = planes[c];
+            if b < 0 {
+                continue;
+            }
             let first = (e.low as i32 == b + 1) as usize;
             let truth = (oracle.magnitude(k, c) >> b) & 1 != 0;
             if coder.code(&mut models[c * 2 + first], truth)? {
@@ -555,7 +578,14 @@ mod tests {
     fn lossless_after_all_passes() {
         let layout = layout(4);
         let tree = ZeroTree::new(&layout);
-        for weighting in [Weighting::default(), Weighting { bits_per_level: 0 }] {
+        for weighting in [
+            Weighting::default(),
+            Weighting::LEVELS.with_normal_bits(2),
+            Weighting {
+                bits_per_level: 0,
+                normal_bits: 0,
+            },
+        ] {
             let c = coefs(&tree, 99);
             let enc = encode(&tree, &c, weighting, None);
             let dec = decode(&tree, enc.params, &enc.bytes, None);
@@ -578,7 +608,11 @@ mod tests {
     fn prefixes_decode_and_error_never_rises() {
         let tree = ZeroTree::new(&layout(4));
         let c = coefs(&tree, 5);
-        let enc = encode(&tree, &c, Weighting { bits_per_level: 0 }, None);
+        let flat = Weighting {
+            bits_per_level: 0,
+            normal_bits: 0,
+        };
+        let enc = encode(&tree, &c, flat, None);
         let mut last = f64::INFINITY;
         for cut in (0..=enc.bytes.len())
             .step_by(enc.bytes.len() / 60 + 1)

@@ -12,6 +12,9 @@ use qm_lift::{BaseMesh, Coord, Layout, Lifting, Quantizer, SemiRegularMesh, Upda
 use crate::container::{self, BaseSection, Header, Limits};
 use crate::{Error, PolyMesh, Result};
 
+/// Default extra weight, in bits, of the normal component of the details.
+pub const DEFAULT_NORMAL_BITS: u32 = 2;
+
 /// Encoder settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[non_exhaustive]
@@ -24,8 +27,11 @@ pub struct EncodeOptions {
     pub max_bytes: Option<usize>,
     /// Lifting update rule.
     pub update: UpdateRule,
-    /// Level weighting of the bit-plane coder.
+    /// Level and normal weighting of the bit-plane coder.
     pub weighting: Weighting,
+    /// Code details in local frames, normal first (see
+    /// [`qm_lift::frames`]); off, they are coded in world axes.
+    pub frames: bool,
 }
 
 impl EncodeOptions {
@@ -36,7 +42,8 @@ impl EncodeOptions {
         passes: None,
         max_bytes: None,
         update: UpdateRule::MeanPreserving,
-        weighting: Weighting { bits_per_level: 1 },
+        weighting: Weighting::LEVELS.with_normal_bits(DEFAULT_NORMAL_BITS),
+        frames: true,
     };
 
     /// Sets the quantization bits.
@@ -68,6 +75,12 @@ impl EncodeOptions {
         self.weighting = weighting;
         self
     }
+
+    /// Turns local frames on or off.
+    pub const fn with_frames(mut self, frames: bool) -> Self {
+        self.frames = frames;
+        self
+    }
 }
 
 impl Default for EncodeOptions {
@@ -96,10 +109,28 @@ pub struct Compressed {
 /// Compresses a semi-regular mesh.
 pub fn compress(mesh: &SemiRegularMesh, options: &EncodeOptions) -> Result<Compressed> {
     let layout = mesh.layout();
+    for (what, value, max) in [
+        ("weight bits per level", options.weighting.bits_per_level, 2),
+        (
+            "normal weight bits",
+            options.weighting.normal_bits,
+            container::MAX_NORMAL_BITS as u32,
+        ),
+    ] {
+        if value > max {
+            return Err(Error::Limit {
+                what,
+                value: value as u64,
+                max: max as u64,
+            });
+        }
+    }
     let quantizer = Quantizer::fit(mesh.positions(), options.bits)?;
     let quantized = quantizer.quantize_all(mesh.positions());
     let mut data = quantized.clone();
-    Lifting::new(layout, options.update).forward(&mut data);
+    Lifting::new(layout, options.update)
+        .with_frames(options.frames)
+        .forward(&mut data);
     let tree = ZeroTree::new(layout);
     let coefs = tree.gather(&data);
     let encoded = qm_ezw::encode(&tree, &coefs, options.weighting, options.passes);
@@ -109,6 +140,8 @@ pub fn compress(mesh: &SemiRegularMesh, options: &EncodeOptions) -> Result<Compr
         level: layout.level() as u8,
         update: options.update.code(),
         weight_bits: options.weighting.bits_per_level as u8,
+        normal_bits: options.weighting.normal_bits as u8,
+        frames: options.frames as u8,
         origin: quantizer.origin,
         step: quantizer.step,
         base_vertices: base.vertex_count(),
@@ -330,6 +363,7 @@ impl Decoder {
             passes: h.passes as u32,
             weighting: Weighting {
                 bits_per_level: h.weight_bits as u32,
+                normal_bits: h.normal_bits as u32,
             },
         };
         let update = UpdateRule::from_code(h.update).expect("checked by the container");
@@ -388,7 +422,9 @@ impl Decoder {
         values[..self.base_values.len()].copy_from_slice(&self.base_values);
         self.tree.scatter(&decoded.coefs, values);
         let level = level.map_or(self.layout.level(), |l| l.min(self.layout.level()));
-        Lifting::new(&self.layout, self.update).inverse_to(values, level);
+        Lifting::new(&self.layout, self.update)
+            .with_frames(self.header.frames == 1)
+            .inverse_to(values, level);
         DecodeStatus {
             level,
             passes: decoded.passes,

@@ -23,8 +23,12 @@ use crate::{Error, Result};
 /// Magic bytes at the start of every `.qm` file.
 pub const MAGIC: [u8; 4] = [0x89, b'Q', b'M', b'\n'];
 
-/// The container version this build writes and reads.
-pub const VERSION: u8 = 1;
+/// The container version this build writes.
+pub const VERSION: u8 = 2;
+
+/// The oldest container version this build still reads. Version 1 had no
+/// `normal_bits` and `frames` fields: its details are in world axes.
+pub const OLDEST_VERSION: u8 = 1;
 
 /// Everything a decoder needs besides the base mesh and the stream.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -37,6 +41,11 @@ pub struct Header {
     pub update: u8,
     /// Weighting bits per level of the bit-plane coder.
     pub weight_bits: u8,
+    /// Extra weighting bits of the first (normal) coordinate (version 2).
+    pub normal_bits: u8,
+    /// Details in local frames, normal first (1), or in world axes (0)
+    /// (version 2).
+    pub frames: u8,
     /// Quantization grid origin.
     pub origin: [f64; 3],
     /// Quantization step.
@@ -51,6 +60,42 @@ pub struct Header {
     pub passes: u8,
     /// Reserved, zero.
     pub flags: u32,
+}
+
+/// The version 1 header: the same fields but `normal_bits` and `frames`.
+#[derive(Deserialize)]
+struct HeaderV1 {
+    bits: u8,
+    level: u8,
+    update: u8,
+    weight_bits: u8,
+    origin: [f64; 3],
+    step: f64,
+    base_vertices: u32,
+    base_faces: u32,
+    planes: u8,
+    passes: u8,
+    flags: u32,
+}
+
+impl From<HeaderV1> for Header {
+    fn from(h: HeaderV1) -> Header {
+        Header {
+            bits: h.bits,
+            level: h.level,
+            update: h.update,
+            weight_bits: h.weight_bits,
+            normal_bits: 0,
+            frames: 0,
+            origin: h.origin,
+            step: h.step,
+            base_vertices: h.base_vertices,
+            base_faces: h.base_faces,
+            planes: h.planes,
+            passes: h.passes,
+            flags: h.flags,
+        }
+    }
 }
 
 /// The base mesh as stored: corners of each face, then the level-0 scaling
@@ -126,6 +171,9 @@ pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u
     Ok(out)
 }
 
+/// Most extra weighting bits of the normal coordinate.
+pub const MAX_NORMAL_BITS: u8 = 8;
+
 /// Decoder limits on what header fields may ask for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[non_exhaustive]
@@ -181,10 +229,11 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
         return Err(Error::NotQm);
     }
     let version = take(data, 4, 1)?[0];
-    if version != VERSION {
+    if !(OLDEST_VERSION..=VERSION).contains(&version) {
         return Err(Error::UnsupportedVersion {
             found: version,
-            supported: VERSION,
+            oldest: OLDEST_VERSION,
+            newest: VERSION,
         });
     }
     let header_len = u16::from_le_bytes(take(data, 5, 2)?.try_into().expect("2 bytes")) as usize;
@@ -193,7 +242,11 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
     if crc != crc32fast::hash(&data[..7 + header_len]) {
         return Err(Error::Checksum { section: "header" });
     }
-    let header: Header = decode_exact(header_raw, "header")?;
+    let header: Header = if version == 1 {
+        decode_exact::<HeaderV1>(header_raw, "header")?.into()
+    } else {
+        decode_exact(header_raw, "header")?
+    };
     let header_bytes = 7 + header_len + 4;
     check_header(&header, limits)?;
 
@@ -305,9 +358,25 @@ fn check_header(h: &Header, limits: &Limits) -> Result<()> {
             what: format!("unknown update rule {}", h.update),
         });
     }
+    if h.frames > 1 {
+        return Err(Error::Malformed {
+            what: format!("unknown frame kind {}", h.frames),
+        });
+    }
     // Weighted planes cannot exceed the coefficient bits plus the weights.
-    let most_planes = h.bits as u32 + 8 + h.weight_bits as u32 * h.level as u32;
-    if h.weight_bits > 2 || h.planes as u32 > most_planes || h.passes > h.planes {
+    let most_planes =
+        h.bits as u32 + 8 + h.weight_bits as u32 * h.level as u32 + h.normal_bits as u32;
+    for (what, bits, most) in [
+        ("level", h.weight_bits, 2),
+        ("normal", h.normal_bits, MAX_NORMAL_BITS),
+    ] {
+        if bits > most {
+            return Err(Error::Malformed {
+                what: format!("{what} weight of {bits} bits (at most {most})"),
+            });
+        }
+    }
+    if h.planes as u32 > most_planes || h.passes > h.planes {
         return Err(Error::Malformed {
             what: format!("{} passes of {} planes", h.passes, h.planes),
         });
@@ -339,6 +408,8 @@ mod tests {
             level: 3,
             update: 2,
             weight_bits: 1,
+            normal_bits: 2,
+            frames: 1,
             origin: [0.5, -1.0, 2.0],
             step: 0.001,
             base_vertices: 4,

@@ -15,7 +15,14 @@ pub enum Error {
     /// The data does not start with the `.qm` magic bytes.
     NotQm,
     /// A format version this build cannot read.
-    UnsupportedVersion { found: u8, supported: u8 },
+    UnsupportedVersion {
+        /// The version in the file.
+        found: u8,
+        /// The oldest version this build reads.
+        oldest: u8,
+        /// The newest version this build reads.
+        newest: u8,
+    },
     /// The data ends inside the header or the base mesh.
     Truncated { needed: usize, available: usize },
     /// A checksum does not match: the named section is corrupt.
@@ -47,10 +54,14 @@ impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Error::NotQm => write!(f, "not a .qm stream (bad magic bytes)"),
-            Error::UnsupportedVersion { found, supported } => {
+            Error::UnsupportedVersion {
+                found,
+                oldest,
+                newest,
+            } => {
                 write!(
                     f,
-                    ".qm format version {found} is not supported (this build reads version {supported})"
+                    ".qm format version {found} is not supported (this build reads versions {oldest} to {newest})"
                 )
             }
             Error::Truncated { needed, available } => write!(

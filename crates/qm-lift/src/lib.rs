@@ -12,6 +12,7 @@
 
 mod base;
 mod error;
+pub mod frames;
 mod layout;
 mod lifting;
 mod mesh;

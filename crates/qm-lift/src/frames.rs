@@ -1,0 +1,271 @@
+//! Local frames: details expressed along the coarser surface's normal.
+//!
+//! A detail of level `l` moves its sample off the prediction made from the
+//! level `l - 1` mesh. Its component along that mesh's normal changes the
+//! shape; the two tangential components mostly slide the sample along the
+//! surface, which a surface distance hardly sees. [`to_local`] turns every
+//! level-`l` detail into `(normal, tangent, tangent)` coordinates so that a
+//! coder can spend its bits on the first one; [`to_world`] undoes it.
+//!
+//! **The normal** at an odd sample comes from the level `l - 1` quads around
+//! it, which the decoder has rebuilt before it needs the frame: a face point
+//! takes its quad's normal (the cross product of the diagonals), an edge point
+//! the sum of the normals of the two quads beside its edge, reaching into the
+//! neighbouring base face where there is one. All of it is integer arithmetic
+//! on the even samples, so encoder and decoder agree bit for bit. When the
+//! stream is cut, the decoder's coarser mesh is approximate and so is its
+//! frame; once the coarser levels are exact, so is the frame.
+//!
+//! **The rotation** maps the normal onto the first axis with two plane
+//! rotations (about `z`, then about `y`). Each is done as three integer
+//! shears, `x += round(p y)`, `y += round(q x)`, `x += round(p y)` with
+//! `p = s / (1 + c)` and `q = -s`, which a decoder undoes exactly in reverse
+//! order whatever the rounding did (lifting a rotation, as in reversible
+//! integer transforms). Angles beyond 90 degrees first turn by 180 degrees, a
+//! sign change, so `|p| <= 1`. The cosines and sines come from the integer
+//! normal by `+ - * /` and `sqrt` alone, which IEEE 754 rounds the same way on
+//! every platform, so the frames do not depend on the machine or on a maths
+//! library.
+
+use crate::layout::Layout;
+use crate::lifting::Coord;
+
+/// Which way [`apply`] turns the details.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) enum Turn {
+    /// World to `(normal, tangent, tangent)`.
+    ToLocal,
+    /// Back to world axes.
+    ToWorld,
+}
+
+/// Turns the details of `level` (its odd samples) between world axes and
+/// their local frames; the even samples (the level `level - 1` mesh) must
+/// hold positions and are left as they are.
+pub(crate) fn apply(layout: &Layout, level: u32, data: &mut [Coord], turn: Turn) {
+    let base = layout.base();
+    let s = 1usize << (layout.level() - level + 1);
+    let h = s / 2;
+    let m = layout.n() / s;
+    for f in 0..layout.face_count() {
+        let owns = |k: u8| base.owns(f as u32, k);
+        let normal = |data: &[Coord], i: usize, j: usize, quads: &[(isize, isize)]| {
+            let mut sum = [0i64; 3];
+            for &(da, db) in quads {
+                let (a, b) = (i as isize + da * s as isize, j as isize + db * s as isize);
+                if let Some(n) = quad_normal(layout, f, a, b, s as isize, data) {
+                    (0..3).for_each(|k| sum[k] += n[k]);
+                }
+            }
+            sum
+        };
+        for b in 0..=m {
+            for a in 0..=m {
+                let (i, j) = (a * s, b * s);
+                // Horizontal edge point: quads above and below its edge.
+                let row_owned = (b != 0 || owns(0)) && (b != m || owns(2));
+                let column_owned = (a != 0 || owns(3)) && (a != m || owns(1));
+                if a < m && row_owned {
+                    let n = normal(data, i, j, &[(0, 0), (0, -1)]);
+                    turn_at(layout, f, i + h, j, n, data, turn);
+                }
+                // Vertical edge point: quads right and left of its edge.
+                if b < m && column_owned {
+                    let n = normal(data, i, j, &[(0, 0), (-1, 0)]);
+                    turn_at(layout, f, i, j + h, n, data, turn);
+                }
+                // Face point: its own quad.
+                if a < m && b < m {
+                    let n = normal(data, i, j, &[(0, 0)]);
+                    turn_at(layout, f, i + h, j + h, n, data, turn);
+                }
+            }
+        }
+    }
+}
+
+fn turn_at(
+    layout: &Layout,
+    f: usize,
+    i: usize,
+    j: usize,
+    normal: [i64; 3],
+    data: &mut [Coord],
+    turn: Turn,
+) {
+    let v = &mut data[layout.sample(f, i, j) as usize];
+    let frame = Frame::new(normal);
+    *v = match turn {
+        Turn::ToLocal => frame.to_local(*v),
+        Turn::ToWorld => frame.to_world(*v),
+    };
+}
+
+/// Normal of the quad with corner `(a, b)` and side `s` (grid units of face
+/// `f`, possibly reaching across one side of the face): the cross product of
+/// its diagonals, or `None` where a corner does not exist.
+fn quad_normal(
+    layout: &Layout,
+    f: usize,
+    a: isize,
+    b: isize,
+    s: isize,
+    data: &[Coord],
+) -> Option<[i64; 3]> {
+    let at = |i: isize, j: isize| -> Option<[i64; 3]> {
+        let id = layout.sample_beyond(f, i as i32, j as i32)?;
+        Some(data[id as usize].map(i64::from))
+    };
+    let (p0, p1, p2, p3) = (at(a, b)?, at(a + s, b)?, at(a + s, b + s)?, at(a, b + s)?);
+    let d = std::array::from_fn::<i64, 3, _>(|k| p2[k] - p0[k]);
+    let e = std::array::from_fn::<i64, 3, _>(|k| p3[k] - p1[k]);
+    Some([
+        d[1] * e[2] - d[2] * e[1],
+        d[2] * e[0] - d[0] * e[2],
+        d[0] * e[1] - d[1] * e[0],
+    ])
+}
+
+/// A rotation taking a normal onto the first axis, as two plane rotations.
+#[derive(Clone, Copy, Debug)]
+struct Frame {
+    /// Rotation in the `(x, y)` plane, or `None` when the normal has no
+    /// `(x, y)` part.
+    xy: Option<Givens>,
+    /// Rotation in the `(x, z)` plane.
+    xz: Option<Givens>,
+}
+
+impl Frame {
+    fn new(n: [i64; 3]) -> Frame {
+        let [x, y, z] = n.map(|v| v as f64);
+        let r2 = x * x + y * y;
+        let len2 = r2 + z * z;
+        if len2 == 0.0 {
+            return Frame { xy: None, xz: None };
+        }
+        let r = r2.sqrt();
+        let len = len2.sqrt();
+        Frame {
+            xy: (r > 0.0).then(|| Givens::new(x / r, y / r)),
+            xz: Some(Givens::new(r / len, z / len)),
+        }
+    }
+
+    fn to_local(self, v: Coord) -> Coord {
+        let [mut x, mut y, mut z] = v.map(i64::from);
+        if let Some(g) = self.xy {
+            g.forward(&mut x, &mut y);
+        }
+        if let Some(g) = self.xz {
+            g.forward(&mut x, &mut z);
+        }
+        [x, y, z].map(|c| c as i32)
+    }
+
+    fn to_world(self, v: Coord) -> Coord {
+        let [mut x, mut y, mut z] = v.map(i64::from);
+        if let Some(g) = self.xz {
+            g.inverse(&mut x, &mut z);
+        }
+        if let Some(g) = self.xy {
+            g.inverse(&mut x, &mut y);
+        }
+        [x, y, z].map(|c| c as i32)
+    }
+}
+
+/// The plane rotation `(x, y) -> (c x + s y, -s x + c y)` as integer shears.
+#[derive(Clone, Copy, Debug)]
+struct Givens {
+    /// Turn by 180 degrees first (when `c < 0`).
+    flip: bool,
+    p: f64,
+    q: f64,
+}
+
+impl Givens {
+    fn new(c: f64, s: f64) -> Givens {
+        let flip = c < 0.0;
+        let (c, s) = if flip { (-c, -s) } else { (c, s) };
+        Givens {
+            flip,
+            p: s / (1.0 + c),
+            q: -s,
+        }
+    }
+
+    #[inline]
+    fn shear(k: f64, v: i64) -> i64 {
+        (k * v as f64).round() as i64
+    }
+
+    fn forward(self, x: &mut i64, y: &mut i64) {
+        if self.flip {
+            *x = -*x;
+            *y = -*y;
+        }
+        *x += Self::shear(self.p, *y);
+        *y += Self::shear(self.q, *x);
+        *x += Self::shear(self.p, *y);
+    }
+
+    fn inverse(self, x: &mut i64, y: &mut i64) {
+        *x -= Self::shear(self.p, *y);
+        *y -= Self::shear(self.q, *x);
+        *x -= Self::shear(self.p, *y);
+        if self.flip {
+            *x = -*x;
+            *y = -*y;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lcg(seed: &mut u64) -> i64 {
+        *seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (*seed >> 33) as i64
+    }
+
+    #[test]
+    fn frames_invert_exactly_and_put_the_normal_first() {
+        let mut seed = 7;
+        for _ in 0..20_000 {
+            let n = [0; 3].map(|_| lcg(&mut seed) % 2001 - 1000);
+            let frame = Frame::new(n);
+            let v: Coord = [0; 3].map(|_| (lcg(&mut seed) % (1 << 24) - (1 << 23)) as i32);
+            let local = frame.to_local(v);
+            assert_eq!(frame.to_world(local), v, "normal {n:?}");
+            // The normal itself, scaled up, lands on the first axis.
+            let big = n.map(|c| (c * 1000) as i32);
+            let l = frame.to_local(big);
+            let len = n
+                .iter()
+                .map(|&c| (c * 1000) as f64)
+                .map(|c| c * c)
+                .sum::<f64>();
+            if len > 0.0 {
+                assert!((l[0] as f64 - len.sqrt()).abs() <= 3.0, "{n:?} -> {l:?}");
+                assert!(l[1].abs() <= 3 && l[2].abs() <= 3, "{n:?} -> {l:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn rotation_keeps_lengths_up_to_rounding() {
+        let mut seed = 3;
+        for _ in 0..5_000 {
+            let n = [0; 3].map(|_| lcg(&mut seed) % 201 - 100);
+            let frame = Frame::new(n);
+            let v: Coord = [0; 3].map(|_| (lcg(&mut seed) % 20_001 - 10_000) as i32);
+            let l = frame.to_local(v);
+            let norm = |c: Coord| c.iter().map(|&x| (x as f64).powi(2)).sum::<f64>().sqrt();
+            assert!((norm(l) - norm(v)).abs() <= 4.0, "{v:?} -> {l:?}");
+        }
+    }
+}
