@@ -6,6 +6,11 @@
 //! `b` is coded in the pass of plane `b + (L - l)`. Each pass thus spends its
 //! bits where they remove the most error, and since the shift is an integer
 //! number of bits the last pass still leaves every coefficient exact.
+//! [`Weighting::normal_bits`] adds weight to the first coordinate alone: with
+//! details in local frames (`qm_lift::frames`) that is the normal component,
+//! which moves the surface, while the tangential ones mostly slide samples
+//! along it; measured on remeshed models, 2 bits gained about 2 dB at equal
+//! bytes over coding the three alike.
 //!
 //! **Passes.** Plane `P` runs from `T0 = floor(log2 max weighted |c|)` down
 //! to 0, one pass per plane (the paper's halving thresholds; its garbled T0
@@ -24,7 +29,8 @@
 //!   children are visited in this same pass. A node with insignificant
 //!   coordinates and an open subtree is EZW's isolated zero.
 //!
-//! All three coordinates share the tree: one pass refines x, y and z.
+//! All three coordinates share the tree: one pass refines all three (world
+//! x, y, z, or normal and tangents).
 //!
 //! **Contexts.** Significance bits are modelled by node kind, level, the
 //! coordinate, whether the parent is significant in it, how many of the

@@ -8,7 +8,7 @@
 //! | `H` | [`Header`], bincode (standard configuration: varints) |
 //! | 4 | CRC-32 of everything above |
 //! | 4 | base section length `B`, little endian |
-//! | `B` | base mesh: face corners, then the level-0 scaling values (bincode, delta-coded) |
+//! | `B` | base mesh: face corners, then the level-0 scaling values, predicted and arithmetic-coded (see `basecode`; version 1: bincode, delta-coded) |
 //! | 4 | CRC-32 of the base section |
 //! | rest | the embedded EZW stream, to the end of the data |
 //!
@@ -18,7 +18,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::{Error, Result};
+use crate::{Error, Result, basecode};
 
 /// Magic bytes at the start of every `.qm` file.
 pub const MAGIC: [u8; 4] = [0x89, b'Q', b'M', b'\n'];
@@ -108,7 +108,8 @@ pub struct BaseSection {
     pub values: Vec<[i32; 3]>,
 }
 
-#[derive(Serialize, Deserialize)]
+/// The version 1 base section.
+#[derive(Deserialize)]
 struct StoredBase {
     faces: Vec<[u32; 4]>,
     deltas: Vec<[i32; 3]>,
@@ -146,24 +147,7 @@ pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u
     out.extend_from_slice(&header_bytes);
     out.extend_from_slice(&crc32fast::hash(&out).to_le_bytes());
 
-    let mut previous = [0i32; 3];
-    let deltas = base
-        .values
-        .iter()
-        .map(|v| {
-            let d = std::array::from_fn(|k| v[k].wrapping_sub(previous[k]));
-            previous = *v;
-            d
-        })
-        .collect();
-    let stored = StoredBase {
-        faces: base.faces.clone(),
-        deltas,
-    };
-    let base_bytes =
-        bincode::serde::encode_to_vec(&stored, config()).map_err(|e| Error::Malformed {
-            what: e.to_string(),
-        })?;
+    let base_bytes = basecode::encode(&base.faces, &base.values);
     out.extend_from_slice(&(base_bytes.len() as u32).to_le_bytes());
     out.extend_from_slice(&base_bytes);
     out.extend_from_slice(&crc32fast::hash(&base_bytes).to_le_bytes());
@@ -273,7 +257,32 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
             section: "base mesh",
         });
     }
-    let stored: StoredBase = decode_exact(base_raw, "base mesh")?;
+    let base = if version == 1 {
+        read_base_v1(base_raw, &header)?
+    } else {
+        let (faces, values) = basecode::decode(
+            base_raw,
+            header.base_faces as usize,
+            header.base_vertices as usize,
+        )
+        .map_err(|problem| Error::Malformed {
+            what: format!("base mesh: {problem}"),
+        })?;
+        BaseSection { faces, values }
+    };
+    let base_bytes = 4 + base_len + 4;
+    Ok(Container {
+        header,
+        base,
+        stream: &data[header_bytes + base_bytes..],
+        header_bytes,
+        base_bytes,
+    })
+}
+
+/// The version 1 base section: bincode faces and delta-coded values.
+fn read_base_v1(raw: &[u8], header: &Header) -> Result<BaseSection> {
+    let stored: StoredBase = decode_exact(raw, "base mesh")?;
     if stored.faces.len() != header.base_faces as usize
         || stored.deltas.len() != header.base_vertices as usize
     {
@@ -296,16 +305,9 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
             previous
         })
         .collect();
-    let base_bytes = 4 + base_len + 4;
-    Ok(Container {
-        header,
-        base: BaseSection {
-            faces: stored.faces,
-            values,
-        },
-        stream: &data[header_bytes + base_bytes..],
-        header_bytes,
-        base_bytes,
+    Ok(BaseSection {
+        faces: stored.faces,
+        values,
     })
 }
 

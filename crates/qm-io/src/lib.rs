@@ -9,6 +9,7 @@
 //! Main types: [`EncodeOptions`], [`Compressed`], [`DecodeOptions`],
 //! [`Decompressed`], [`container::Header`], [`PolyMesh`], [`Error`].
 
+mod basecode;
 mod codec;
 pub mod container;
 mod error;
