@@ -20,6 +20,8 @@
 
 use qm_ezw::{BitReader, BitWriter, Context};
 
+use crate::container::BaseSection;
+
 /// Contexts of one kind of signed number.
 #[derive(Clone)]
 struct IntModel {
@@ -186,7 +188,7 @@ pub(crate) fn decode(
     bytes: &[u8],
     face_count: usize,
     vertex_count: usize,
-) -> Result<(Vec<[u32; 4]>, Vec<[i32; 3]>), String> {
+) -> Result<BaseSection, String> {
     let mut r = BitReader::new(bytes);
     let mut corner = vec![IntModel::new(); 4];
     let mut faces = Vec::with_capacity(face_count.min(bytes.len()));
@@ -218,7 +220,7 @@ pub(crate) fn decode(
         }
         values.push(value);
     }
-    Ok((faces, values))
+    Ok(BaseSection { faces, values })
 }
 
 #[cfg(test)]
@@ -251,8 +253,8 @@ mod tests {
     fn round_trip_and_size() {
         let (faces, values) = grid(9);
         let bytes = encode(&faces, &values);
-        let (f, v) = decode(&bytes, faces.len(), values.len()).unwrap();
-        assert_eq!((f, v), (faces.clone(), values.clone()));
+        let got = decode(&bytes, faces.len(), values.len()).unwrap();
+        assert_eq!((got.faces, got.values), (faces.clone(), values.clone()));
         // The plain coding took one byte per corner and about three per
         // coordinate: 324 + 300 bytes here.
         assert!(bytes.len() < 300, "{} bytes", bytes.len());
@@ -268,7 +270,8 @@ mod tests {
             [5, -5, 7],
         ];
         let bytes = encode(&faces, &values);
-        assert_eq!(decode(&bytes, 2, 4).unwrap(), (faces, values));
+        let got = decode(&bytes, 2, 4).unwrap();
+        assert_eq!((got.faces, got.values), (faces, values));
     }
 
     #[test]
@@ -279,7 +282,11 @@ mod tests {
         // needed, still gives exactly the data.
         for cut in 0..bytes.len() {
             if let Ok(got) = decode(&bytes[..cut], faces.len(), values.len()) {
-                assert_eq!(got, (faces.clone(), values.clone()), "cut {cut}");
+                assert_eq!(
+                    (got.faces, got.values),
+                    (faces.clone(), values.clone()),
+                    "cut {cut}"
+                );
             }
         }
         assert!(decode(&bytes[..bytes.len() / 2], faces.len(), values.len()).is_err());

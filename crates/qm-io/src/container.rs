@@ -260,15 +260,14 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
     let base = if version == 1 {
         read_base_v1(base_raw, &header)?
     } else {
-        let (faces, values) = basecode::decode(
+        basecode::decode(
             base_raw,
             header.base_faces as usize,
             header.base_vertices as usize,
         )
         .map_err(|problem| Error::Malformed {
             what: format!("base mesh: {problem}"),
-        })?;
-        BaseSection { faces, values }
+        })?
     };
     let base_bytes = 4 + base_len + 4;
     Ok(Container {
