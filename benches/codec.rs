@@ -1,6 +1,7 @@
 //! Throughput of the codec on a semi-regular mesh of 1.57M samples (a cube
 //! refined 9 times): lifting forward + inverse, the bit-plane coder, and
-//! whole-file decoding of the complete stream and of prefixes.
+//! whole-file decoding of the complete stream and of prefixes, and a stream
+//! shown after each of 16 chunks, decoded from scratch or resumed.
 //!
 //! Run with `cargo bench --bench codec`; figures are in coefficients
 //! (samples) per second.
@@ -23,14 +24,16 @@ fn codec(c: &mut Criterion) {
     group
         .sample_size(10)
         .throughput(Throughput::Elements(samples));
-    group.bench_function("forward+inverse", |b| {
-        let lifting = Lifting::new(layout, UpdateRule::MeanPreserving);
-        let mut data = quantized.clone();
-        b.iter(|| {
-            lifting.forward(&mut data);
-            lifting.inverse(&mut data);
-        })
-    });
+    for (name, frames) in [("forward+inverse", false), ("forward+inverse/frames", true)] {
+        group.bench_function(name, |b| {
+            let lifting = Lifting::new(layout, UpdateRule::MeanPreserving).with_frames(frames);
+            let mut data = quantized.clone();
+            b.iter(|| {
+                lifting.forward(&mut data);
+                lifting.inverse(&mut data);
+            })
+        });
+    }
     group.finish();
 
     let full = qm::compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
@@ -54,6 +57,34 @@ fn codec(c: &mut Criterion) {
             b.iter(|| qm::decompress(&full.bytes, &options).unwrap())
         });
     }
+    group.finish();
+
+    // A viewer receiving the lossless file in 16 equal chunks and showing
+    // the mesh after each: decoding every prefix from the start, against one
+    // `Decoder` that resumes from its last complete pass.
+    let mut group = c.benchmark_group("stream-16-chunks");
+    group
+        .sample_size(10)
+        .throughput(Throughput::Elements(samples));
+    let cuts: Vec<usize> = (1..=16).map(|k| full.bytes.len() * k / 16).collect();
+    group.bench_function("from-scratch", |b| {
+        b.iter(|| {
+            for &cut in &cuts {
+                let options = DecodeOptions::default().with_max_bytes(Some(cut));
+                qm::decompress(&full.bytes, &options).unwrap();
+            }
+        })
+    });
+    group.bench_function("resuming", |b| {
+        b.iter(|| {
+            let decoder = qm::Decoder::new(&full.bytes, &qm::Limits::DEFAULT).unwrap();
+            let start = decoder.stream_start();
+            let mut values = Vec::new();
+            for &cut in &cuts {
+                decoder.decode_into(&full.bytes[start..cut], None, None, &mut values);
+            }
+        })
+    });
     group.finish();
 }
 

@@ -45,7 +45,7 @@
 
 use qm_tree::{NO_PARENT, ZeroTree};
 
-use crate::range::{BitReader, BitWriter, Context, Truncated};
+use crate::range::{BitReader, BitWriter, Context, ReaderSnapshot, Truncated};
 
 /// A coefficient: three integer coordinates.
 pub type Coef = [i32; 3];
@@ -193,24 +193,107 @@ pub fn decode(
     data: &[u8],
     max_passes: Option<u32>,
 ) -> Decoded {
+    decode_resuming(tree, params, data, max_passes, None).0
+}
+
+/// A decoder's state at the end of a complete pass, from which a longer cut
+/// of the same stream can be decoded without redoing the passes before it.
+#[derive(Clone)]
+pub struct Checkpoint {
+    state: State,
+    reader: ReaderSnapshot,
+    passes: u32,
+    /// The stream bytes the state depends on (to check that a later call
+    /// continues the same stream).
+    prefix: Vec<u8>,
+}
+
+impl std::fmt::Debug for Checkpoint {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Checkpoint")
+            .field("passes", &self.passes)
+            .field("bytes", &self.prefix.len())
+            .finish()
+    }
+}
+
+impl Checkpoint {
+    /// Complete passes behind this checkpoint.
+    pub fn passes(&self) -> u32 {
+        self.passes
+    }
+
+    /// Whether decoding `data` with `params` can start here.
+    fn continues(&self, params: StreamParams, data: &[u8], passes: u32) -> bool {
+        self.state.params == params && self.passes <= passes && data.starts_with(&self.prefix)
+    }
+}
+
+/// [`decode`], starting from `from` when it is a checkpoint of the same
+/// stream (otherwise from the start), and returning a checkpoint at the last
+/// complete pass for the next, longer cut. The result is the same as
+/// [`decode`]'s on the same arguments.
+///
+/// A checkpoint costs a copy of the decoder's state, so one is taken only
+/// before a pass that looks like the last one the data holds (fewer bytes
+/// left than the previous pass used); when that guess is wrong the returned
+/// checkpoint is an earlier one, or `from` itself.
+pub fn decode_resuming(
+    tree: &ZeroTree,
+    params: StreamParams,
+    data: &[u8],
+    max_passes: Option<u32>,
+    from: Option<Checkpoint>,
+) -> (Decoded, Option<Checkpoint>) {
     let passes = max_passes.map_or(params.passes, |p| p.min(params.passes));
-    let mut reader = BitReader::new(data);
-    let mut state = State::new(tree, params);
-    let mut done = 0;
+    let from = from.filter(|c| c.continues(params, data, passes));
+    let (mut state, mut reader, mut done, mut saved) = match from {
+        Some(c) => (
+            c.state.clone(),
+            BitReader::resume(data, c.reader),
+            c.passes,
+            Some(c),
+        ),
+        None => (State::new(tree, params), BitReader::new(data), 0, None),
+    };
     let mut truncated = false;
-    for pass in 0..passes {
+    let mut last_pass_bytes = 0;
+    let checkpoint_here = |state: &State, reader: &BitReader, done: u32| {
+        reader.snapshot().map(|snapshot| Checkpoint {
+            state: state.clone(),
+            reader: snapshot,
+            passes: done,
+            prefix: data[..snapshot.bytes_read()].to_vec(),
+        })
+    };
+    let first = done;
+    for pass in first..passes {
+        let start = reader.position();
+        let left = data.len().saturating_sub(start);
+        if done > 0 && left < last_pass_bytes && saved.as_ref().is_none_or(|c| c.passes < done) {
+            if let Some(c) = checkpoint_here(&state, &reader, done) {
+                saved = Some(c);
+            }
+        }
         if state.pass(tree, pass, &mut reader, &mut Unknown).is_err() {
             truncated = true;
             break;
         }
+        last_pass_bytes = reader.position() - start;
         done += 1;
     }
-    Decoded {
+    if !truncated && saved.as_ref().is_none_or(|c| c.passes < done) {
+        if let Some(c) = checkpoint_here(&state, &reader, done) {
+            saved = Some(c);
+        }
+    }
+    let decoded = Decoded {
         coefs: state.reconstruct(),
         passes: done,
         truncated,
         bytes_read: reader.position(),
-    }
+    };
+    (decoded, saved)
 }
 
 /// Encoder or decoder, seen from the scan.
@@ -306,6 +389,7 @@ impl Models {
 }
 
 /// What coder and decoder both know about each node.
+#[derive(Clone)]
 struct State {
     params: StreamParams,
     max_level: u32,
@@ -630,6 +714,39 @@ mod tests {
             last = err;
         }
         assert_eq!(last, 0.0);
+    }
+
+    /// Decoding longer and longer cuts from checkpoints gives exactly what
+    /// decoding each cut from the start gives, and skips work.
+    #[test]
+    fn resuming_equals_decoding_from_scratch() {
+        let tree = ZeroTree::new(&layout(4));
+        let c = coefs(&tree, 21);
+        let enc = encode(&tree, &c, Weighting::LEVELS.with_normal_bits(2), None);
+        let mut checkpoint = None;
+        let mut resumed = 0;
+        let n = enc.bytes.len();
+        for cut in (0..=n).step_by(n / 97 + 1).chain([n, n]) {
+            let data = &enc.bytes[..cut];
+            let fresh = decode(&tree, enc.params, data, None);
+            let from = checkpoint.take();
+            if let Some(c) = &from {
+                resumed += (Checkpoint::passes(c) > 0) as usize;
+            }
+            let (got, next) = decode_resuming(&tree, enc.params, data, None, from);
+            assert_eq!(got.coefs, fresh.coefs, "cut {cut}");
+            assert_eq!((got.passes, got.truncated), (fresh.passes, fresh.truncated));
+            checkpoint = next;
+        }
+        assert!(resumed > 50, "checkpoints used {resumed} times");
+        // A checkpoint of another stream, or past a pass limit, is ignored.
+        let other = encode(&tree, &coefs(&tree, 22), Weighting::default(), None);
+        let fresh = decode(&tree, other.params, &other.bytes, None);
+        let (got, _) = decode_resuming(&tree, other.params, &other.bytes, None, checkpoint.clone());
+        assert_eq!(got.coefs, fresh.coefs);
+        let fresh = decode(&tree, enc.params, &enc.bytes, Some(3));
+        let (got, _) = decode_resuming(&tree, enc.params, &enc.bytes, Some(3), checkpoint);
+        assert_eq!(got.coefs, fresh.coefs);
     }
 
     #[test]

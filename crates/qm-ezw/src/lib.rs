@@ -11,6 +11,8 @@
 mod ezw;
 mod range;
 
-pub use ezw::{Coef, Decoded, Encoded, StreamParams, Weighting, decode, encode};
+pub use ezw::{
+    Checkpoint, Coef, Decoded, Encoded, StreamParams, Weighting, decode, decode_resuming, encode,
+};
 pub use qm_tree::{self, ZeroTree};
-pub use range::{BitReader, BitWriter, Context, Truncated};
+pub use range::{BitReader, BitWriter, Context, ReaderSnapshot, Truncated};

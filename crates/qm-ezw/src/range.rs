@@ -141,6 +141,22 @@ impl BitWriter {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Truncated;
 
+/// The state of a [`BitReader`] between two symbols.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ReaderSnapshot {
+    code: u32,
+    range: u32,
+    pos: usize,
+}
+
+impl ReaderSnapshot {
+    /// Bytes the reader had consumed: everything it decided depends on
+    /// these and no others.
+    pub fn bytes_read(&self) -> usize {
+        self.pos
+    }
+}
+
 /// Arithmetic decoder over a (possibly cut) byte slice.
 #[derive(Debug)]
 pub struct BitReader<'a> {
@@ -204,6 +220,28 @@ impl<'a> BitReader<'a> {
             self.code = (self.code << 8) | self.next_byte() as u32;
         }
         Ok(bit)
+    }
+
+    /// Where the decoder stands, to [`Self::resume`] later on the same data
+    /// or a longer cut of it; `None` once it has run past the end of its
+    /// data (its window then holds made-up bytes).
+    pub fn snapshot(&self) -> Option<ReaderSnapshot> {
+        (!self.truncated).then_some(ReaderSnapshot {
+            code: self.code,
+            range: self.range,
+            pos: self.pos,
+        })
+    }
+
+    /// Continues decoding `data` from `at`, a snapshot taken on a prefix of it.
+    pub fn resume(data: &'a [u8], at: ReaderSnapshot) -> Self {
+        BitReader {
+            code: at.code,
+            range: at.range,
+            data,
+            pos: at.pos.min(data.len()),
+            truncated: false,
+        }
     }
 
     /// Whether the decoder has run past the end of its data.

@@ -293,11 +293,12 @@ pub fn decompress(bytes: &[u8], options: &DecodeOptions) -> Result<Decompressed>
         .map_or(bytes.len(), |m| m.min(bytes.len()))];
     let decoder = Decoder::new(bytes, &options.limits)?;
     let mut values = Vec::new();
-    let status = decoder.decode_into(
+    let status = decoder.decode_with(
         &bytes[decoder.stream_start()..],
         options.passes,
         options.level,
         &mut values,
+        false,
     );
     let Decoder {
         header,
@@ -324,8 +325,14 @@ pub fn decompress(bytes: &[u8], options: &DecodeOptions) -> Result<Decompressed>
 /// A parsed header and base mesh, ready to decode stream prefixes again and
 /// again: a viewer that receives a file in pieces builds the layout and the
 /// trees once and decodes each longer prefix with [`Decoder::decode_into`].
+///
+/// It also keeps the bit-plane decoder's state at the last complete pass
+/// (a [`qm_ezw::Checkpoint`]), so a longer cut of the same stream resumes
+/// there instead of decoding every pass again. The result never depends on
+/// it: any stream, cut or pass limit gives what [`decompress`] gives.
 #[derive(Clone, Debug)]
 pub struct Decoder {
+    checkpoint: std::cell::RefCell<Option<qm_ezw::Checkpoint>>,
     header: Header,
     base_values: Vec<Coord>,
     layout: Layout,
@@ -373,6 +380,7 @@ impl Decoder {
             step: h.step,
         };
         Ok(Decoder {
+            checkpoint: std::cell::RefCell::new(None),
             header: h,
             base_values: c.base.values,
             layout,
@@ -416,7 +424,27 @@ impl Decoder {
         level: Option<u32>,
         values: &mut Vec<Coord>,
     ) -> DecodeStatus {
-        let decoded = qm_ezw::decode(&self.tree, self.params, stream, passes);
+        self.decode_with(stream, passes, level, values, true)
+    }
+
+    /// [`Self::decode_into`], keeping a checkpoint for the next call or not.
+    fn decode_with(
+        &self,
+        stream: &[u8],
+        passes: Option<u32>,
+        level: Option<u32>,
+        values: &mut Vec<Coord>,
+        resume: bool,
+    ) -> DecodeStatus {
+        let decoded = if resume {
+            let from = self.checkpoint.take();
+            let (decoded, checkpoint) =
+                qm_ezw::decode_resuming(&self.tree, self.params, stream, passes, from);
+            self.checkpoint.replace(checkpoint);
+            decoded
+        } else {
+            qm_ezw::decode(&self.tree, self.params, stream, passes)
+        };
         values.clear();
         values.resize(self.layout.sample_count(), [0; 3]);
         values[..self.base_values.len()].copy_from_slice(&self.base_values);
@@ -447,6 +475,23 @@ mod tests {
         assert_eq!(d.values, c.quantized);
         assert!(!d.truncated);
         assert_eq!(d.passes, d.header.planes as u32);
+    }
+
+    /// A decoder fed longer and longer cuts, resuming from its checkpoints,
+    /// gives what decompressing each cut gives.
+    #[test]
+    fn incremental_decoding_equals_decompress() {
+        let c = compress(&sphere(4), &EncodeOptions::DEFAULT).unwrap();
+        let decoder = Decoder::new(&c.bytes, &Limits::DEFAULT).unwrap();
+        let start = decoder.stream_start();
+        let mut values = Vec::new();
+        for cut in (start..=c.bytes.len()).step_by(97).chain([c.bytes.len()]) {
+            let status = decoder.decode_into(&c.bytes[start..cut], None, None, &mut values);
+            let d = decompress(&c.bytes[..cut], &DecodeOptions::default()).unwrap();
+            assert_eq!(values, d.values, "cut {cut}");
+            assert_eq!((status.passes, status.truncated), (d.passes, d.truncated));
+        }
+        assert_eq!(values, c.quantized);
     }
 
     #[test]

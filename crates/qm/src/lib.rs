@@ -34,7 +34,8 @@ pub use qm_param as param;
 pub use qm_tree as tree;
 
 pub use qm_io::{
-    Compressed, DecodeOptions, Decompressed, EncodeOptions, Limits, PolyMesh, UpdateRule, Weighting,
+    Compressed, DecodeOptions, DecodeStatus, Decoder, Decompressed, EncodeOptions, Limits,
+    PolyMesh, UpdateRule, Weighting,
 };
 pub use qm_lift::SemiRegularMesh;
 pub use qm_param::{Detected, RemeshOptions, RemeshReport, Remeshed};
