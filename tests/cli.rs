@@ -184,3 +184,26 @@ fn bad_usage_exits_2() {
         Some(2)
     );
 }
+
+/// Outputs get the mode any new file gets here, not the owner-only mode of
+/// the temporary file they are written through.
+#[cfg(unix)]
+#[test]
+fn outputs_get_the_usual_file_mode() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(asset("quad/cc_cube.obj"), dir.path().join("cube.obj")).unwrap();
+    let usual = dir.path().join("usual");
+    std::fs::File::create(&usual).unwrap();
+    let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+    let out = qm(&["compress", "cube.obj", "--quiet"], dir.path());
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = qm(
+        &["decompress", "cube.qm", "-o", "back.obj", "--quiet"],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    for made in ["cube.qm", "back.obj"] {
+        assert_eq!(mode(&dir.path().join(made)), mode(&usual), "{made}");
+    }
+}

@@ -155,14 +155,24 @@ pub fn write_mesh(path: &Path, mesh: &PolyMesh) -> Result<(), MeshError> {
     let format = Format::from_path(path).ok_or(MeshError::UnknownFormat { file: file.clone() })?;
     // Checked before touching the disk, so a refused mesh costs no temporary file.
     check_writable(mesh, format, &file)?;
+    write_atomic(path, |w| write_unchecked(w, format, mesh)).map_err(|e| MeshError::io(&file, e))
+}
+
+/// Writes a file without ever leaving a partial one: `write` fills a
+/// temporary file in the same directory, which is synced and then renamed
+/// over `path`. The file gets the mode of the file it replaces, or the usual
+/// mode of a new file. On any error `path` is untouched.
+pub fn write_atomic(
+    path: &Path,
+    write: impl FnOnce(&mut fs::File) -> io::Result<()>,
+) -> io::Result<()> {
     let dir = match path.parent() {
         Some(dir) if !dir.as_os_str().is_empty() => dir,
         _ => Path::new("."),
     };
     let mut builder = tempfile::Builder::new();
     builder.prefix(".qm-").suffix(".tmp");
-    // tempfile creates files readable by the owner only; a mesh file should get
-    // the mode of the file it replaces or the usual mode of a new file.
+    // tempfile creates files readable by the owner only.
     let permissions = match fs::metadata(path) {
         Ok(meta) => Some(meta.permissions()),
         Err(_) => default_permissions(),
@@ -170,17 +180,12 @@ pub fn write_mesh(path: &Path, mesh: &PolyMesh) -> Result<(), MeshError> {
     if let Some(permissions) = permissions {
         builder.permissions(permissions);
     }
-    let mut temp = builder
-        .tempfile_in(dir)
-        .map_err(|e| MeshError::io(&file, e))?;
-    write_unchecked(temp.as_file_mut(), format, mesh).map_err(|e| MeshError::io(&file, e))?;
+    let mut temp = builder.tempfile_in(dir)?;
+    write(temp.as_file_mut())?;
     // Without the sync a crash soon after the rename could leave an empty file
     // where the old one was.
-    temp.as_file()
-        .sync_all()
-        .map_err(|e| MeshError::io(&file, e))?;
-    temp.persist(path)
-        .map_err(|e| MeshError::io(&file, e.error))?;
+    temp.as_file().sync_all()?;
+    temp.persist(path).map_err(|e| e.error)?;
     Ok(())
 }
 

@@ -80,18 +80,11 @@ pub fn refuse_overwriting_input(input: &Path, output: &Path) -> Result<(), Failu
 }
 
 /// Writes `bytes` to `path` through a temporary file in the same folder, so
-/// that `path` is either untouched or complete.
+/// that `path` is either untouched or complete (and gets the usual mode of a
+/// new file, not the temporary file's owner-only one).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let fail = |e: std::io::Error| Failure(format!("{}: {e}", path.display()));
-    let mut file = tempfile::NamedTempFile::new_in(dir).map_err(fail)?;
-    file.write_all(bytes).map_err(fail)?;
-    file.as_file().sync_all().map_err(fail)?;
-    file.persist(path).map_err(|e| fail(e.error))?;
-    Ok(())
+    qm::io::mesh::write_atomic(path, |file| file.write_all(bytes))
+        .map_err(|e| Failure(format!("{}: {e}", path.display())))
 }
 
 /// A spinner naming the current step; silent with `--quiet` or when stderr
