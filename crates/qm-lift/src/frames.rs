@@ -47,37 +47,52 @@ pub(crate) fn apply(layout: &Layout, level: u32, data: &mut [Coord], turn: Turn)
     let s = 1usize << (layout.level() - level + 1);
     let h = s / 2;
     let m = layout.n() / s;
+    let side = layout.n() + 1;
+    // Normals of the face's level `level - 1` quads, each used by up to
+    // five odd samples.
+    let mut quads = vec![[0i64; 3]; m * m];
     for f in 0..layout.face_count() {
         let owns = |k: u8| base.owns(f as u32, k);
-        let normal = |data: &[Coord], i: usize, j: usize, quads: &[(isize, isize)]| {
-            let mut sum = [0i64; 3];
-            for &(da, db) in quads {
-                let (a, b) = (i as isize + da * s as isize, j as isize + db * s as isize);
-                if let Some(n) = quad_normal(layout, f, a, b, s as isize, data) {
-                    (0..3).for_each(|k| sum[k] += n[k]);
-                }
+        let grid = layout.face_grid(f);
+        let at = |a: usize, b: usize| data[grid[b * s * side + a * s] as usize].map(i64::from);
+        for b in 0..m {
+            for a in 0..m {
+                quads[b * m + a] =
+                    diagonal_cross(at(a, b), at(a + 1, b), at(a + 1, b + 1), at(a, b + 1));
             }
-            sum
+        }
+        // A quad of the face, or across its side (looked up in the
+        // neighbouring face; `None` where there is none).
+        let quad = |data: &[Coord], a: isize, b: isize| -> Option<[i64; 3]> {
+            if (0..m as isize).contains(&a) && (0..m as isize).contains(&b) {
+                Some(quads[b as usize * m + a as usize])
+            } else {
+                quad_normal(layout, f, a * s as isize, b * s as isize, s as isize, data)
+            }
+        };
+        let sum = |x: Option<[i64; 3]>, y: Option<[i64; 3]>| -> [i64; 3] {
+            let (x, y) = (x.unwrap_or([0; 3]), y.unwrap_or([0; 3]));
+            [x[0] + y[0], x[1] + y[1], x[2] + y[2]]
         };
         for b in 0..=m {
             for a in 0..=m {
                 let (i, j) = (a * s, b * s);
-                // Horizontal edge point: quads above and below its edge.
+                let (ai, bi) = (a as isize, b as isize);
                 let row_owned = (b != 0 || owns(0)) && (b != m || owns(2));
                 let column_owned = (a != 0 || owns(3)) && (a != m || owns(1));
+                // Horizontal edge point: quads above and below its edge.
                 if a < m && row_owned {
-                    let n = normal(data, i, j, &[(0, 0), (0, -1)]);
+                    let n = sum(quad(data, ai, bi), quad(data, ai, bi - 1));
                     turn_at(layout, f, i + h, j, n, data, turn);
                 }
                 // Vertical edge point: quads right and left of its edge.
                 if b < m && column_owned {
-                    let n = normal(data, i, j, &[(0, 0), (-1, 0)]);
+                    let n = sum(quad(data, ai, bi), quad(data, ai - 1, bi));
                     turn_at(layout, f, i, j + h, n, data, turn);
                 }
                 // Face point: its own quad.
                 if a < m && b < m {
-                    let n = normal(data, i, j, &[(0, 0)]);
-                    turn_at(layout, f, i + h, j + h, n, data, turn);
+                    turn_at(layout, f, i + h, j + h, quads[b * m + a], data, turn);
                 }
             }
         }
@@ -94,6 +109,10 @@ fn turn_at(
     turn: Turn,
 ) {
     let v = &mut data[layout.sample(f, i, j) as usize];
+    if *v == [0; 3] {
+        // Zero in any frame (most fine details of a short prefix).
+        return;
+    }
     let frame = Frame::new(normal);
     *v = match turn {
         Turn::ToLocal => frame.to_local(*v),
@@ -116,14 +135,24 @@ fn quad_normal(
         let id = layout.sample_beyond(f, i as i32, j as i32)?;
         Some(data[id as usize].map(i64::from))
     };
-    let (p0, p1, p2, p3) = (at(a, b)?, at(a + s, b)?, at(a + s, b + s)?, at(a, b + s)?);
-    let d = std::array::from_fn::<i64, 3, _>(|k| p2[k] - p0[k]);
-    let e = std::array::from_fn::<i64, 3, _>(|k| p3[k] - p1[k]);
-    Some([
+    Some(diagonal_cross(
+        at(a, b)?,
+        at(a + s, b)?,
+        at(a + s, b + s)?,
+        at(a, b + s)?,
+    ))
+}
+
+/// `(p2 - p0) x (p3 - p1)`: twice the area vector of the quad `p0 p1 p2 p3`.
+#[inline]
+fn diagonal_cross(p0: [i64; 3], p1: [i64; 3], p2: [i64; 3], p3: [i64; 3]) -> [i64; 3] {
+    let d = [p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]];
+    let e = [p3[0] - p1[0], p3[1] - p1[1], p3[2] - p1[2]];
+    [
         d[1] * e[2] - d[2] * e[1],
         d[2] * e[0] - d[0] * e[2],
         d[0] * e[1] - d[1] * e[0],
-    ])
+    ]
 }
 
 /// A rotation taking a normal onto the first axis, as two plane rotations.
@@ -146,9 +175,14 @@ impl Frame {
         }
         let r = r2.sqrt();
         let len = len2.sqrt();
+        let xy = (r > 0.0).then(|| {
+            let inv = 1.0 / r;
+            Givens::new(x * inv, y * inv)
+        });
+        let inv = 1.0 / len;
         Frame {
-            xy: (r > 0.0).then(|| Givens::new(x / r, y / r)),
-            xz: Some(Givens::new(r / len, z / len)),
+            xy,
+            xz: Some(Givens::new(r * inv, z * inv)),
         }
     }
 
@@ -195,9 +229,13 @@ impl Givens {
         }
     }
 
+    /// `R(k v)`: the product in doubles, plus a half away from zero, then
+    /// truncated (a plain add and an exact conversion, where `f64::round`
+    /// would be a library call on most targets).
     #[inline]
     fn shear(k: f64, v: i64) -> i64 {
-        (k * v as f64).round() as i64
+        let x = k * v as f64;
+        (x + 0.5f64.copysign(x)) as i64
     }
 
     fn forward(self, x: &mut i64, y: &mut i64) {
