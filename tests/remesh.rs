@@ -82,8 +82,9 @@ fn closed_genus_0_stays_closed_without_duplicate_vertices() {
         &DistanceOptions::DEFAULT.with_samples(200_000),
     )
     .unwrap();
-    // Measured 80.9 dB at 28x the input's vertices; the goal is 85 dB.
-    assert!(d.psnr_db > 79.0, "remesh PSNR {:.2} dB", d.psnr_db);
+    // Measured 86.3 dB at 28x the input's vertices (1M samples); the issue
+    // asks for 85 dB.
+    assert!(d.psnr_db > 85.0, "remesh PSNR {:.2} dB", d.psnr_db);
 }
 
 #[test]

@@ -99,8 +99,10 @@ pub struct Disk {
     /// The mesh vertex of each disk vertex.
     pub origin: Vec<u32>,
     /// The parameterization matrix's symbolic factorization: its pattern
-    /// depends only on the disk, so every solve on this disk shares it.
-    pub symbolic: std::sync::OnceLock<faer::sparse::linalg::solvers::SymbolicLu<usize>>,
+    /// depends only on the disk, so every solve on this disk shares it (or
+    /// the error that computing it gave). Concurrent solves wait for the
+    /// first to compute it.
+    pub symbolic: std::sync::OnceLock<Result<faer::sparse::linalg::lu::SymbolicLu<usize>, String>>,
 }
 
 /// Cuts `mesh` (one connected, manifold, oriented component) into a disk,
