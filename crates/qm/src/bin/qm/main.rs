@@ -5,6 +5,7 @@
 //! stderr naming the file and the problem), 2 on bad usage.
 
 mod output;
+mod serve;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -111,6 +112,24 @@ enum Command {
         #[arg(long, default_value_t = qm::param::distance::DEFAULT_SEED)]
         seed: u64,
     },
+    /// Serve the browser viewer and .qm files on 127.0.0.1 (the viewer
+    /// streams a file and refines the mesh as bytes arrive).
+    Serve {
+        /// A .qm file, or a folder whose .qm files are offered.
+        path: PathBuf,
+        /// TCP port (0: any free port; the URL is printed).
+        #[arg(long, default_value_t = 8000)]
+        port: u16,
+        /// Send .qm files at most this fast, in KB/s, to watch the progression.
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+        throttle: Option<u32>,
+        /// The built viewer (default: web/dist of this source tree).
+        #[arg(long)]
+        web: Option<PathBuf>,
+        /// No log lines (the URL is still printed).
+        #[arg(long)]
+        quiet: bool,
+    },
 }
 
 fn main() -> ExitCode {
@@ -147,6 +166,19 @@ fn main() -> ExitCode {
             samples,
             seed,
         } => distance(&a, &b, json, samples, seed),
+        Command::Serve {
+            path,
+            port,
+            throttle,
+            web,
+            quiet,
+        } => serve::serve(serve::ServeOptions {
+            path,
+            port,
+            throttle,
+            web,
+            quiet,
+        }),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -322,6 +354,8 @@ struct Info {
     planes: u8,
     update: String,
     weight_bits: u8,
+    normal_bits: u8,
+    frames: bool,
     base_vertices: u32,
     base_faces: u32,
     vertices: u64,
@@ -345,13 +379,16 @@ fn info(input: &Path, json: bool) -> Result<(), Failure> {
         header_bytes: c.header_bytes,
         base_bytes: c.base_bytes,
         stream_bytes: c.stream.len(),
-        version: container::VERSION,
+        // The container checked the version byte.
+        version: data[4],
         bits: h.bits,
         level: h.level,
         passes: h.passes,
         planes: h.planes,
         update,
         weight_bits: h.weight_bits,
+        normal_bits: h.normal_bits,
+        frames: h.frames == 1,
         base_vertices: h.base_vertices,
         base_faces: h.base_faces,
         vertices: base.sample_count(h.level as u32),
