@@ -111,39 +111,45 @@ pub(crate) fn apply(layout: &Layout, level: u32, data: &mut [Coord], turn: Turn)
                 let column_owned = (a != 0 || owns(3)) && (a != m || owns(1));
                 // Horizontal edge point: quads above and below its edge.
                 if a < m && row_owned {
-                    let n = sum(quad(data, ai, bi), quad(data, ai, bi - 1));
-                    turn_at(layout, f, i + h, j, n, data, turn);
+                    turn_at(layout, f, i + h, j, data, turn, |data| {
+                        sum(quad(data, ai, bi), quad(data, ai, bi - 1))
+                    });
                 }
                 // Vertical edge point: quads right and left of its edge.
                 if b < m && column_owned {
-                    let n = sum(quad(data, ai, bi), quad(data, ai - 1, bi));
-                    turn_at(layout, f, i, j + h, n, data, turn);
+                    turn_at(layout, f, i, j + h, data, turn, |data| {
+                        sum(quad(data, ai, bi), quad(data, ai - 1, bi))
+                    });
                 }
                 // Face point: its own quad.
                 if a < m && b < m {
-                    let n = quad(data, ai, bi).unwrap_or([0; 3]);
-                    turn_at(layout, f, i + h, j + h, n, data, turn);
+                    turn_at(layout, f, i + h, j + h, data, turn, |data| {
+                        quad(data, ai, bi).unwrap_or([0; 3])
+                    });
                 }
             }
         }
     }
 }
 
+/// Turns the detail at `(i, j)` of face `f` by the frame of the normal that
+/// `normal` computes (only when the detail is not zero: zero in any frame,
+/// and most fine details of a short prefix are).
 fn turn_at(
     layout: &Layout,
     f: usize,
     i: usize,
     j: usize,
-    normal: [i64; 3],
     data: &mut [Coord],
     turn: Turn,
+    normal: impl FnOnce(&[Coord]) -> [i64; 3],
 ) {
-    let v = &mut data[layout.sample(f, i, j) as usize];
-    if *v == [0; 3] {
-        // Zero in any frame (most fine details of a short prefix).
+    let id = layout.sample(f, i, j) as usize;
+    if data[id] == [0; 3] {
         return;
     }
-    let frame = Frame::new(normal);
+    let frame = Frame::new(normal(data));
+    let v = &mut data[id];
     *v = match turn {
         Turn::ToLocal => frame.to_local(*v),
         Turn::ToWorld => frame.to_world(*v),
