@@ -242,15 +242,15 @@ fn check_writable(mesh: &PolyMesh, format: Format, file: &str) -> Result<(), Mes
         return Err(invalid(Problem::NoFaces));
     }
     let max_vertices = if format == Format::Ply {
-        ply::MAX_WRITTEN_VERTICES
+        ply::MAX_WRITTEN_VERTICES as u64
     } else {
         MAX_VERTICES
     };
-    if vertices > max_vertices {
+    if vertices as u64 > max_vertices {
         return Err(invalid(Problem::TooMany {
             what: "vertices",
             count: vertices as u64,
-            max: max_vertices as u64,
+            max: max_vertices,
         }));
     }
     if let Some(vertex) = mesh.positions.iter().position(|p| !p.is_finite()) {
@@ -278,8 +278,9 @@ fn check_writable(mesh: &PolyMesh, format: Format, file: &str) -> Result<(), Mes
     Ok(())
 }
 
-/// The most vertices a mesh may have: indices are `u32`.
-const MAX_VERTICES: usize = u32::MAX as usize;
+/// The most vertices a mesh may have: indices are `u32`. (A `u64`, so that
+/// the comparisons mean something on 32-bit targets too.)
+const MAX_VERTICES: u64 = u32::MAX as u64;
 
 /// Collects a mesh while enforcing the limits of [`PolyMesh`]'s `u32` indices
 /// and offsets, and at the end that there is something to code.
@@ -306,11 +307,11 @@ impl MeshBuilder {
                 vertex: self.mesh.positions.len(),
             });
         }
-        if self.mesh.positions.len() >= MAX_VERTICES {
+        if self.mesh.positions.len() as u64 >= MAX_VERTICES {
             return Err(Problem::TooMany {
                 what: "vertices",
                 count: self.mesh.positions.len() as u64 + 1,
-                max: MAX_VERTICES as u64,
+                max: MAX_VERTICES,
             });
         }
         self.mesh.positions.push(position);

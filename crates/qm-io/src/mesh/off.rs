@@ -114,11 +114,11 @@ pub(super) fn read(bytes: &[u8], file: &str) -> Result<PolyMesh, MeshError> {
         let what = "expected the vertex and face counts".to_owned();
         return Err(fail(number, Problem::Syntax(what)));
     };
-    if vertex_count > MAX_VERTICES as u64 {
+    if vertex_count > MAX_VERTICES {
         let problem = Problem::TooMany {
             what: "vertices",
             count: vertex_count,
-            max: MAX_VERTICES as u64,
+            max: MAX_VERTICES,
         };
         return Err(fail(number, problem));
     }

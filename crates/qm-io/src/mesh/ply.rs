@@ -189,11 +189,11 @@ fn check_header(header: &Header, header_text: &[u8], body_bytes: usize) -> Resul
                         }
                     }
                 }
-                if def.count > MAX_VERTICES {
+                if def.count as u64 > MAX_VERTICES {
                     let problem = Problem::TooMany {
                         what: "vertices",
                         count: def.count as u64,
-                        max: MAX_VERTICES as u64,
+                        max: MAX_VERTICES,
                     };
                     return Err(fail(problem));
                 }
