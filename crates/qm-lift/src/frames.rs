@@ -3,9 +3,10 @@
 //! A detail of level `l` moves its sample off the prediction made from the
 //! level `l - 1` mesh. Its component along that mesh's normal changes the
 //! shape; the two tangential components mostly slide the sample along the
-//! surface, which a surface distance hardly sees. [`to_local`] turns every
+//! surface, which a surface distance hardly sees. With
+//! [`crate::Lifting::with_frames`], the forward transform turns every
 //! level-`l` detail into `(normal, tangent, tangent)` coordinates so that a
-//! coder can spend its bits on the first one; [`to_world`] undoes it.
+//! coder can spend its bits on the first one, and the inverse undoes it.
 //!
 //! **The normal** at an odd sample comes from the coarser quads around it,
 //! which the decoder has rebuilt before it needs the frame: a face point
