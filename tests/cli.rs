@@ -107,6 +107,47 @@ fn info_json_reports_the_layout() {
     assert_eq!(v["vertices"], 6146);
     assert_eq!(v["faces"], 6144);
     assert!(v["passes"].as_u64().unwrap() > 10);
+    assert_eq!(
+        (&v["version"], &v["frames"], &v["normal_bits"]),
+        (&2.into(), &true.into(), &2.into())
+    );
+
+    // World axes on request; both decode to the same lossless mesh.
+    let out = qm(
+        &[
+            "compress",
+            "cube.obj",
+            "-o",
+            "world.qm",
+            "--quiet",
+            "--bits",
+            "12",
+            "--no-frames",
+        ],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = qm(&["info", "world.qm", "--json"], dir.path());
+    let w: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(
+        (&w["frames"], &w["normal_bits"]),
+        (&false.into(), &0.into())
+    );
+    for name in ["cube", "world"] {
+        let out = qm(
+            &[
+                "decompress",
+                &format!("{name}.qm"),
+                "-o",
+                &format!("{name}-out.obj"),
+                "--quiet",
+            ],
+            dir.path(),
+        );
+        assert!(out.status.success(), "{}", stderr(&out));
+    }
+    let read = |n: &str| std::fs::read(dir.path().join(n)).unwrap();
+    assert_eq!(read("cube-out.obj"), read("world-out.obj"));
 }
 
 #[test]

@@ -45,9 +45,14 @@ enum Command {
         #[arg(long)]
         bytes: Option<usize>,
         /// Subdivision level when the input must be remeshed (default: about
-        /// 16 samples per input vertex).
+        /// 30 samples per input vertex, at most 32).
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=qm::lift::MAX_LEVEL as i64))]
         level: Option<u32>,
+        /// Code the details in world axes, the three coordinates alike,
+        /// instead of normal first in local frames (can suit dense noisy
+        /// scans; see the README).
+        #[arg(long)]
+        no_frames: bool,
         /// No progress or summary output.
         #[arg(long)]
         quiet: bool,
@@ -59,7 +64,8 @@ enum Command {
         /// Output mesh, .obj or .ply (default: the input name + "-remeshed.obj").
         #[arg(short, long)]
         output: Option<PathBuf>,
-        /// Subdivision level (default: about 16 samples per input vertex).
+        /// Subdivision level (default: about 30 samples per input vertex, at
+        /// most 32).
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=qm::lift::MAX_LEVEL as i64))]
         level: Option<u32>,
         /// No progress or summary output.
@@ -142,8 +148,20 @@ fn main() -> ExitCode {
             passes,
             bytes,
             level,
+            no_frames,
             quiet,
-        } => compress(&input, output, bits, passes, bytes, level, quiet),
+        } => {
+            let mut options = qm::EncodeOptions::DEFAULT
+                .with_bits(bits)
+                .with_passes(passes)
+                .with_max_bytes(bytes);
+            if no_frames {
+                options = options
+                    .with_frames(false)
+                    .with_weighting(qm::Weighting::LEVELS);
+            }
+            compress(&input, output, &options, level, quiet)
+        }
         Command::Remesh {
             input,
             output,
@@ -192,9 +210,7 @@ fn main() -> ExitCode {
 fn compress(
     input: &Path,
     output: Option<PathBuf>,
-    bits: u32,
-    passes: Option<u32>,
-    bytes: Option<usize>,
+    options: &qm::EncodeOptions,
     level: Option<u32>,
     quiet: bool,
 ) -> Result<(), Failure> {
@@ -204,20 +220,15 @@ fn compress(
     progress.step("reading mesh");
     let mesh = qm::read_mesh(input).map_err(|e| Failure::about(input, e))?;
     progress.step("making the mesh semi-regular (subdivision connectivity or remeshing)");
-    let options = qm::RemeshOptions::DEFAULT.with_level(level);
-    let prepared = qm::prepare(&mesh, &options).map_err(|e| Failure::about(input, e))?;
+    let remesh_options = qm::RemeshOptions::DEFAULT.with_level(level);
+    let prepared = qm::prepare(&mesh, &remesh_options).map_err(|e| Failure::about(input, e))?;
     progress.suspend(|| {
         if let (false, Some(r)) = (quiet, &prepared.remeshed) {
             report_remesh(input, r);
         }
     });
     progress.step("lifting and coding");
-    let options = qm::EncodeOptions::DEFAULT
-        .with_bits(bits)
-        .with_passes(passes)
-        .with_max_bytes(bytes);
-    let compressed =
-        qm::compress(&prepared.mesh, &options).map_err(|e| Failure::about(input, e))?;
+    let compressed = qm::compress(&prepared.mesh, options).map_err(|e| Failure::about(input, e))?;
     progress.step("writing");
     write_atomic(&output, &compressed.bytes)?;
     progress.finish();
