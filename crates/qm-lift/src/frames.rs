@@ -20,14 +20,15 @@
 //! place. Where the coarser quads are small and thin (a dense scan, a
 //! stretched corner of the parameterization) a small error in their corners
 //! turns their normal a lot: on the Stanford bunny, frames from the level
-//! `l - 1` quads lost up to 4 dB against world axes at 78 dB. So levels 1 to
-//! 3 use the level `l - 1` quads, and finer levels the level `l - 2` quads
+//! `l - 1` quads lost up to 4 dB against world axes at 78 dB. So levels 1 and
+//! 2 use the level `l - 1` quads, and finer levels the level `l - 2` quads
 //! (the parent of each quad above): twice the size, and resolved a level
 //! earlier in the stream. Measured at equal bytes against world axes
-//! (`cargo xtask ab`, 60/65/70/78 dB), bunny -0.4/-0.9/+0.4/+0.8 dB instead of
-//! -0.5/-1.3/-1.7/-4.0; spot, fandisk and rocker-arm lose at most 1 dB of
-//! their 1 to 4.5 dB gains. Once the coarser levels are exact, so is the
-//! frame.
+//! (`cargo xtask ab`, 60/65/70/78 dB): the bunny gains +1.2/+1.6/+1.4/+1.1 dB
+//! instead of losing 0.5/1.3/1.7/4.0. Starting at level 4 instead kept up to
+//! 1.8 dB more on fandisk at low rates but let the bunny lose 0.9 dB; starting
+//! at level 2 lost 0.8 dB on fandisk. Once the coarser levels are exact, so
+//! is the frame.
 //!
 //! **The rotation** maps the normal onto the first axis with two plane
 //! rotations (about `z`, then about `y`). Each is done as three integer
@@ -44,8 +45,8 @@ use crate::layout::Layout;
 use crate::lifting::Coord;
 
 /// Quads per face side of the level `l - 1` grid from which frames use the
-/// level `l - 2` quads instead (levels 4 and finer).
-const COARSE_FROM: usize = 8;
+/// level `l - 2` quads instead (levels 3 and finer).
+const COARSE_FROM: usize = 4;
 
 /// Which way [`apply`] turns the details.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -67,7 +68,7 @@ pub(crate) fn apply(layout: &Layout, level: u32, data: &mut [Coord], turn: Turn)
     let side = layout.n() + 1;
     // Normals of the face's level `level - 1` quads, each used by up to
     // five odd samples.
-    // From level 4 on, the normals come from the level `level - 2` quads
+    // From level 3 on, the normals come from the level `level - 2` quads
     // (the frame then depends on a mesh a cut stream has resolved better,
     // and the quads are twice the size): see the module docs.
     let coarse = if m >= COARSE_FROM { 2 } else { 1 };
