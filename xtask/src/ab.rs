@@ -19,8 +19,9 @@ use crate::rd::{self, AtPsnr, bytes_at};
 /// PSNR levels at which A and B are compared.
 const TARGETS_DB: [f64; 4] = [60.0, 65.0, 70.0, 78.0];
 
-/// Byte budgets per stream.
-const BUDGETS: usize = 24;
+/// Byte budgets per stream (log-spaced from the base mesh to the whole
+/// file, as in `rd-curve`).
+const BUDGETS: usize = 25;
 
 const USAGE: &str = "usage: cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--out FILE]\n  \
     SPEC: comma-separated frames=on|off, normal=BITS, weight=BITS, update=none|paper|mean\n  \
@@ -98,7 +99,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
         }
     }
     let (oa, ob) = (options(&a)?, options(&b)?);
-    let bar = ProgressBar::new((files.len() * 2 * (BUDGETS + 1)) as u64);
+    let bar = ProgressBar::new((files.len() * 2 * BUDGETS) as u64);
     bar.set_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} {msg}")
             .map_err(|e| e.to_string())?
@@ -130,7 +131,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
             let c = qm::compress(&prepared.mesh, o).map_err(|e| at(e.to_string()))?;
             let first = c.header_bytes + c.base_bytes;
             let mut curve = Vec::new();
-            for bytes in budgets(first, c.bytes.len()) {
+            for bytes in rd::budgets(first, c.bytes.len(), BUDGETS) {
                 bar.set_message(format!("{name}: {label} {bytes} B"));
                 let d = qm::decompress(
                     &c.bytes,
@@ -180,17 +181,6 @@ pub fn run(args: &[String]) -> Result<(), String> {
         std::fs::write(&out, &table).map_err(|e| format!("{}: {e}", out.display()))?;
     }
     Ok(())
-}
-
-/// Log-spaced sizes from the first stream byte to the whole file.
-fn budgets(first: usize, last: usize) -> Vec<usize> {
-    let (l0, l1) = (((first + 1) as f64).ln(), (last as f64).ln());
-    let mut b: Vec<usize> = (0..=BUDGETS)
-        .map(|i| (l0 + (l1 - l0) * i as f64 / BUDGETS as f64).exp().round() as usize)
-        .map(|x| x.clamp(first + 1, last))
-        .collect();
-    b.dedup();
-    b
 }
 
 /// PSNR of a curve (sorted by bytes) at `bytes`, interpolated in log-bytes

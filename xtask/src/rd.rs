@@ -371,7 +371,7 @@ fn model(file: &Path, draco: Option<&Draco>, bar: &ProgressBar) -> Result<ModelR
         )?;
         passes.push((p, bytes - first, db));
     }
-    for bytes in budgets(first, full) {
+    for bytes in budgets(first, full, BUDGETS) {
         bar.set_message(format!("{name}: qm {bytes} B"));
         decode(
             format!("bytes={bytes}"),
@@ -411,11 +411,11 @@ fn model(file: &Path, draco: Option<&Draco>, bar: &ProgressBar) -> Result<ModelR
 }
 
 /// `count` sizes from `first` to `last`, log-spaced, without repeats.
-fn budgets(first: usize, last: usize) -> Vec<usize> {
+pub fn budgets(first: usize, last: usize, count: usize) -> Vec<usize> {
     let (l0, l1) = ((first.max(1) as f64).ln(), (last.max(1) as f64).ln());
-    let mut b: Vec<usize> = (0..BUDGETS)
+    let mut b: Vec<usize> = (0..count)
         .map(|i| {
-            let t = i as f64 / (BUDGETS - 1) as f64;
+            let t = i as f64 / (count - 1) as f64;
             ((l0 + t * (l1 - l0)).exp().round() as usize).clamp(first, last)
         })
         .collect();
@@ -653,7 +653,7 @@ mod tests {
 
     #[test]
     fn budgets_are_log_spaced_and_bounded() {
-        let b = budgets(300, 30_000);
+        let b = budgets(300, 30_000, BUDGETS);
         assert_eq!(b.first(), Some(&300));
         assert_eq!(b.last(), Some(&30_000));
         assert!(b.len() >= 12 && b.windows(2).all(|w| w[0] < w[1]));

@@ -193,7 +193,7 @@ pub fn decode(
     data: &[u8],
     max_passes: Option<u32>,
 ) -> Decoded {
-    decode_resuming(tree, params, data, max_passes, None).0
+    run_decoder(tree, params, data, max_passes, None, false).0
 }
 
 /// A decoder's state at the end of a complete pass, from which a longer cut
@@ -245,6 +245,18 @@ pub fn decode_resuming(
     max_passes: Option<u32>,
     from: Option<Checkpoint>,
 ) -> (Decoded, Option<Checkpoint>) {
+    run_decoder(tree, params, data, max_passes, from, true)
+}
+
+/// The decoding loop; checkpoints (state copies) only when `keep` is set.
+fn run_decoder(
+    tree: &ZeroTree,
+    params: StreamParams,
+    data: &[u8],
+    max_passes: Option<u32>,
+    from: Option<Checkpoint>,
+    keep: bool,
+) -> (Decoded, Option<Checkpoint>) {
     let passes = max_passes.map_or(params.passes, |p| p.min(params.passes));
     let from = from.filter(|c| c.continues(params, data, passes));
     let (mut state, mut reader, mut done, mut saved) = match from {
@@ -258,22 +270,26 @@ pub fn decode_resuming(
     };
     let mut truncated = false;
     let mut last_pass_bytes = 0;
-    let checkpoint_here = |state: &State, reader: &BitReader, done: u32| {
-        reader.snapshot().map(|snapshot| Checkpoint {
-            state: state.clone(),
-            reader: snapshot,
-            passes: done,
-            prefix: data[..snapshot.bytes_read()].to_vec(),
-        })
+    // A checkpoint after `done` passes, unless `saved` is as far already.
+    let save = |saved: &mut Option<Checkpoint>, state: &State, reader: &BitReader, done: u32| {
+        if !keep || saved.as_ref().is_some_and(|c| c.passes >= done) {
+            return;
+        }
+        if let Some(snapshot) = reader.snapshot() {
+            *saved = Some(Checkpoint {
+                state: state.clone(),
+                reader: snapshot,
+                passes: done,
+                prefix: data[..snapshot.bytes_read()].to_vec(),
+            });
+        }
     };
     let first = done;
     for pass in first..passes {
         let start = reader.position();
         let left = data.len().saturating_sub(start);
-        if done > 0 && left < last_pass_bytes && saved.as_ref().is_none_or(|c| c.passes < done) {
-            if let Some(c) = checkpoint_here(&state, &reader, done) {
-                saved = Some(c);
-            }
+        if done > 0 && left < last_pass_bytes {
+            save(&mut saved, &state, &reader, done);
         }
         if state.pass(tree, pass, &mut reader, &mut Unknown).is_err() {
             truncated = true;
@@ -282,10 +298,8 @@ pub fn decode_resuming(
         last_pass_bytes = reader.position() - start;
         done += 1;
     }
-    if !truncated && saved.as_ref().is_none_or(|c| c.passes < done) {
-        if let Some(c) = checkpoint_here(&state, &reader, done) {
-            saved = Some(c);
-        }
+    if !truncated {
+        save(&mut saved, &state, &reader, done);
     }
     let decoded = Decoded {
         coefs: state.reconstruct(),

@@ -123,8 +123,11 @@ impl Incidence {
 fn predict(v: usize, faces: &[[u32; 4]], incidence: &Incidence, values: &[[i32; 3]]) -> [i64; 3] {
     let known = |u: u32| (u as usize) < v;
     let value = |u: u32| values[u as usize].map(i64::from);
-    let mut sum = [0i64; 3];
-    let mut count = 0i64;
+    let add = |sum: &mut [i64; 3], x: [i64; 3]| (0..3).for_each(|i| sum[i] += x[i]);
+    // Parallelogram predictions, and the edge neighbours as a fallback (an
+    // edge shared by two faces counts twice, which keeps the mean symmetric).
+    let (mut parallelogram, mut parallelograms) = ([0i64; 3], 0i64);
+    let (mut neighbours, mut neighbour_count) = ([0i64; 3], 0i64);
     for &f in incidence.around(v) {
         let face = faces[f as usize];
         let Some(k) = face.iter().position(|&u| u as usize == v) else {
@@ -133,27 +136,22 @@ fn predict(v: usize, faces: &[[u32; 4]], incidence: &Incidence, values: &[[i32; 
         let (b, c, d) = (face[(k + 1) % 4], face[(k + 2) % 4], face[(k + 3) % 4]);
         if known(b) && known(c) && known(d) {
             let (b, c, d) = (value(b), value(c), value(d));
-            (0..3).for_each(|i| sum[i] += b[i] + d[i] - c[i]);
-            count += 1;
+            add(
+                &mut parallelogram,
+                std::array::from_fn(|i| b[i] + d[i] - c[i]),
+            );
+            parallelograms += 1;
+        }
+        for u in [b, d].into_iter().filter(|&u| known(u)) {
+            add(&mut neighbours, value(u));
+            neighbour_count += 1;
         }
     }
-    if count == 0 {
-        for &f in incidence.around(v) {
-            let face = faces[f as usize];
-            let Some(k) = face.iter().position(|&u| u as usize == v) else {
-                continue;
-            };
-            // Both edge neighbours in this face (an edge shared by two faces
-            // counts twice, which keeps the mean symmetric).
-            for u in [face[(k + 1) % 4], face[(k + 3) % 4]] {
-                if known(u) {
-                    let x = value(u);
-                    (0..3).for_each(|i| sum[i] += x[i]);
-                    count += 1;
-                }
-            }
-        }
-    }
+    let (sum, count) = if parallelograms > 0 {
+        (parallelogram, parallelograms)
+    } else {
+        (neighbours, neighbour_count)
+    };
     if count == 0 {
         return if v == 0 { [0; 3] } else { value(v as u32 - 1) };
     }

@@ -5,7 +5,7 @@
 //! values go into the base section. Decoding reverses each step on whatever
 //! prefix of the stream is present.
 
-use qm_ezw::{StreamParams, Weighting, ZeroTree};
+use qm_ezw::{Weighting, ZeroTree};
 use qm_lift::glam::DVec3;
 use qm_lift::{BaseMesh, Coord, Layout, Lifting, Quantizer, SemiRegularMesh, UpdateRule};
 
@@ -337,8 +337,6 @@ pub struct Decoder {
     base_values: Vec<Coord>,
     layout: Layout,
     tree: ZeroTree,
-    params: StreamParams,
-    update: UpdateRule,
     quantizer: Quantizer,
     header_bytes: usize,
     base_bytes: usize,
@@ -365,15 +363,6 @@ impl Decoder {
         let base = BaseMesh::new(h.base_vertices, c.base.faces)?;
         let layout = Layout::new(base, h.level as u32)?;
         let tree = ZeroTree::new(&layout);
-        let params = StreamParams {
-            planes: h.planes as u32,
-            passes: h.passes as u32,
-            weighting: Weighting {
-                bits_per_level: h.weight_bits as u32,
-                normal_bits: h.normal_bits as u32,
-            },
-        };
-        let update = UpdateRule::from_code(h.update).expect("checked by the container");
         let quantizer = Quantizer {
             bits: h.bits as u32,
             origin: h.origin,
@@ -385,8 +374,6 @@ impl Decoder {
             base_values: c.base.values,
             layout,
             tree,
-            params,
-            update,
             quantizer,
             header_bytes: c.header_bytes,
             base_bytes: c.base_bytes,
@@ -436,21 +423,23 @@ impl Decoder {
         values: &mut Vec<Coord>,
         resume: bool,
     ) -> DecodeStatus {
+        let params = self.header.stream_params();
         let decoded = if resume {
             let from = self.checkpoint.take();
             let (decoded, checkpoint) =
-                qm_ezw::decode_resuming(&self.tree, self.params, stream, passes, from);
+                qm_ezw::decode_resuming(&self.tree, params, stream, passes, from);
             self.checkpoint.replace(checkpoint);
             decoded
         } else {
-            qm_ezw::decode(&self.tree, self.params, stream, passes)
+            qm_ezw::decode(&self.tree, params, stream, passes)
         };
         values.clear();
         values.resize(self.layout.sample_count(), [0; 3]);
         values[..self.base_values.len()].copy_from_slice(&self.base_values);
         self.tree.scatter(&decoded.coefs, values);
         let level = level.map_or(self.layout.level(), |l| l.min(self.layout.level()));
-        Lifting::new(&self.layout, self.update)
+        let update = UpdateRule::from_code(self.header.update).expect("checked by the container");
+        Lifting::new(&self.layout, update)
             .with_frames(self.header.frames == 1)
             .inverse_to(values, level);
         DecodeStatus {

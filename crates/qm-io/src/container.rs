@@ -62,6 +62,20 @@ pub struct Header {
     pub flags: u32,
 }
 
+impl Header {
+    /// What the bit-plane decoder must be told about the stream.
+    pub fn stream_params(&self) -> qm_ezw::StreamParams {
+        qm_ezw::StreamParams {
+            planes: self.planes as u32,
+            passes: self.passes as u32,
+            weighting: qm_ezw::Weighting {
+                bits_per_level: self.weight_bits as u32,
+                normal_bits: self.normal_bits as u32,
+            },
+        }
+    }
+}
+
 /// The version 1 header: the same fields but `normal_bits` and `frames`.
 #[derive(Deserialize)]
 struct HeaderV1 {
