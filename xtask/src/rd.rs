@@ -67,6 +67,14 @@ pub struct ModelResult {
 }
 
 impl ModelResult {
+    /// PSNR of qm's whole (lossless) stream.
+    pub fn lossless_psnr(&self) -> f64 {
+        self.points
+            .iter()
+            .find(|p| p.coder == "qm" && p.setting == "lossless")
+            .map_or(f64::NAN, |p| p.report.psnr_db)
+    }
+
     pub fn curve(&self, coder: &str) -> Vec<(usize, f64)> {
         let mut c: Vec<(usize, f64)> = self
             .points
@@ -556,11 +564,7 @@ fn table1(results: &[ModelResult]) -> String {
             .iter()
             .map(|&(_, b, db)| format!("{b} B, {db:.1} dB"))
             .collect();
-        let lossless = r
-            .points
-            .iter()
-            .find(|p| p.coder == "qm" && p.setting == "lossless")
-            .map_or(f64::NAN, |p| p.report.psnr_db);
+        let lossless = r.lossless_psnr();
         let _ = writeln!(
             s,
             "| {} | {} B, {} vertices, {} faces | {} B ({} quads, level {}) | {} | {} B, {lossless:.1} dB |",
@@ -617,11 +621,7 @@ fn summary(results: &[ModelResult], no_draco: bool, elapsed: f64) -> String {
             };
             cells.push(format!("{a} | {b} | {ratio}"));
         }
-        let lossless_db = r
-            .points
-            .iter()
-            .find(|p| p.coder == "qm" && p.setting == "lossless")
-            .map_or(f64::NAN, |p| p.report.psnr_db);
+        let lossless_db = r.lossless_psnr();
         let _ = writeln!(
             s,
             "| {} | {} | {} | {} B, {lossless_db:.1} dB | {:.1} s |",
