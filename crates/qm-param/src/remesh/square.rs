@@ -9,8 +9,9 @@
 //!
 //! The interior follows Floater's mean-value coordinates (each vertex the
 //! weighted mean of its neighbours, weights `(tan(a/2) + tan(b/2)) / |e|`),
-//! one sparse linear solve for `u` and `v` (faer's sparse LU). Positive weights
-//! and a convex boundary guarantee an embedding (Tutte, Floater). The weights
+//! symmetrized, one sparse linear solve for `u` and `v` (faer's sparse
+//! Cholesky). Positive weights and a convex boundary guarantee an embedding
+//! (Tutte, Floater). The weights
 //! are then divided by each neighbour's L2 stretch and the system solved again
 //! (Yoshizawa, Belyaev and Seidel 2004), which spreads the samples more evenly
 //! over the surface: the best of the iterations is kept. The stretch is
@@ -23,9 +24,10 @@
 //! reweightings, and the sizes tried run in parallel.
 
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
-use faer::sparse::linalg::lu::{NumericLu, factorize_symbolic_lu};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::sparse::linalg::cholesky::{SymmetricOrdering, factorize_symbolic_cholesky};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Conj, Mat, Par};
+use faer::{Conj, Mat, Par, Side};
 use qm_lift::glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
@@ -310,22 +312,28 @@ pub fn parameterize_k(
         }
     }
     snap_corners(disk, &segs, k, &mut uv);
-    let mut weights = mean_value_weights(disk);
+    let weights = mean_value_weights(disk);
     let mut divisor = match start {
         Some(d) => d.to_vec(),
         None => vec![1.0; disk.positions.len()],
     };
-    if start.is_some() {
-        for row in weights.iter_mut() {
-            for (j, w) in row.iter_mut() {
-                *w /= divisor[*j as usize];
-            }
-        }
-    }
     let mut system = System::new(disk, &weights, &fixed);
     let mut best: Option<SquareMap> = None;
     for _ in 0..=iterations {
-        system.solve(&weights, &mut uv)?;
+        if let Err(e) = system.solve(&weights, &divisor, &mut uv) {
+            // Reweighting spreads the weights over many orders of magnitude
+            // (up to 1e10 on the bunny); far beyond that the factorization
+            // loses definiteness to rounding. Keep the best map so far, or
+            // start over from the plain weights.
+            if best.is_some() {
+                break;
+            }
+            if divisor.iter().all(|&d| d == 1.0) {
+                return Err(e);
+            }
+            divisor.fill(1.0);
+            system.solve(&weights, &divisor, &mut uv)?;
+        }
         let (stretch, vertex_stretch, flipped) = stretch(disk, density, &uv);
         let previous = best.as_ref().map(|b| (b.flipped, b.stretch));
         if previous.is_none_or(|p| (flipped, stretch) < p) {
@@ -344,11 +352,6 @@ pub fn parameterize_k(
             break;
         }
         // Yoshizawa et al.: divide each weight by the stretch at its far end.
-        for row in weights.iter_mut() {
-            for (j, w) in row.iter_mut() {
-                *w /= vertex_stretch[*j as usize].max(1e-12);
-            }
-        }
         for (d, s) in divisor.iter_mut().zip(&vertex_stretch) {
             *d *= s.max(1e-12);
         }
@@ -387,7 +390,11 @@ fn snap_corners(disk: &Disk, segs: &[Segment], k: usize, uv: &mut [DVec2]) {
     }
 }
 
-/// Mean-value weights of each vertex's neighbours: `(i, [(j, w_ij)])`.
+/// Symmetrized mean-value weights of each vertex's neighbours:
+/// `(i, [(j, w_ij)])` with `w_ij = w_ji`, the mean of Floater's
+/// `(tan(a/2) + tan(b/2)) / |e|` seen from either end. Still positive, so
+/// the map is still an embedding (Tutte, Floater), and symmetric, so the
+/// system is positive definite (see [`System`]).
 fn mean_value_weights(disk: &Disk) -> Vec<Vec<(u32, f64)>> {
     let mut w: Vec<Vec<(u32, f64)>> = vec![Vec::new(); disk.positions.len()];
     let mut add = |i: u32, j: u32, x: f64| {
@@ -412,29 +419,70 @@ fn mean_value_weights(disk: &Disk) -> Vec<Vec<(u32, f64)>> {
             add(i, k, half_tan / lb);
         }
     }
+    // Every triangle adds both directions of its edges (or neither, when
+    // degenerate), so each entry has its mirror; the sum is commutative, so
+    // the two halves come out bit-identical.
+    let mirror = |i: usize, j: u32| -> f64 {
+        w[j as usize]
+            .iter()
+            .find(|&&(k, _)| k as usize == i)
+            .map_or(0.0, |&(_, x)| x)
+    };
+    let mut w: Vec<Vec<(u32, f64)>> = (0..w.len())
+        .map(|i| {
+            w[i].iter()
+                .map(|&(j, x)| (j, (x + mirror(i, j)) / 2.0))
+                .collect()
+        })
+        .collect();
+    // Degenerate corners give zero or non-finite weights: a tiny positive
+    // one instead, relative to the disk's weights, keeps the matrix
+    // definite without moving anything.
+    let (sum, count) = w
+        .iter()
+        .flatten()
+        .filter(|(_, x)| x.is_finite() && *x > 0.0)
+        .fold((0.0, 0usize), |(s, n), (_, x)| (s + x, n + 1));
+    let floor = 1e-12 * if count > 0 { sum / count as f64 } else { 1.0 };
+    for (_, x) in w.iter_mut().flatten() {
+        if !(x.is_finite() && *x > 0.0) {
+            *x = floor;
+        }
+    }
     w
 }
 
 /// The sparse system of one disk's parameterization: the interior vertices
-/// are the unknowns, the boundary vertices fixed. Its pattern is built once;
-/// every solve refills the values and reuses the disk's symbolic
-/// factorization and this system's numeric storage and scratch memory, so
-/// the reweighting iterations allocate nothing large.
+/// are the unknowns, the boundary vertices fixed.
+///
+/// Row `i` asks `sum_j a_ij (u_i - u_j) = 0` with `a_ij = w_ij / d_j`: the
+/// symmetric weights `w` divided by the far end's accumulated stretch `d`.
+/// Scaling row `i` by `1 / d_i` leaves the solution alone and makes the
+/// matrix symmetric, `w_ij / (d_i d_j)`; with positive weights and fixed
+/// boundary it is a Dirichlet Laplacian, positive definite, so a sparse
+/// Cholesky factorization solves it (about half the work of an LU, and an
+/// AMD ordering instead of COLAMD).
+///
+/// Only the lower triangle is stored. Its pattern is built once; every solve
+/// refills the values and reuses the disk's symbolic factorization and this
+/// system's factor storage and scratch memory, so the reweighting iterations
+/// allocate nothing large.
 struct System<'a> {
     disk: &'a Disk,
     /// The unknown of each disk vertex (`u32::MAX` for fixed ones).
     index: Vec<u32>,
-    /// Column pointers and row indices of the matrix.
+    /// Column pointers and row indices of the lower triangle.
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
     /// Per vertex, where its weight row starts in `slot`.
     row_start: Vec<usize>,
-    /// Value position of each weight (`usize::MAX` for fixed neighbours).
+    /// Value position of each weight: `usize::MAX` for fixed neighbours
+    /// and for the upper triangle (the mirror entry carries it).
     slot: Vec<usize>,
     /// Value position of each unknown's diagonal.
     diagonal: Vec<usize>,
     values: Vec<f64>,
-    numeric: NumericLu<usize, f64>,
+    factor: Vec<f64>,
     scratch: Option<MemBuffer>,
 }
 
@@ -450,25 +498,23 @@ impl<'a> System<'a> {
             }
         }
         // Entries as (column, row, key): key < slot count for a weight,
-        // above it for a diagonal.
+        // above it for a diagonal. The lower triangle: row > column.
         let mut row_start = Vec::with_capacity(n + 1);
         let mut entries = Vec::new();
         let mut keys = 0usize;
         for v in 0..n {
             row_start.push(keys);
             for &(j, _) in &weights[v] {
-                if !fixed[v] && !fixed[j as usize] {
-                    entries.push((index[j as usize] as usize, index[v] as usize, keys));
+                let (r, c) = (index[v], index[j as usize]);
+                if r != u32::MAX && c != u32::MAX && r > c {
+                    entries.push((c as usize, r as usize, keys));
                 }
                 keys += 1;
             }
         }
         row_start.push(keys);
-        for v in 0..n {
-            if !fixed[v] {
-                let r = index[v] as usize;
-                entries.push((r, r, keys + r));
-            }
+        for r in 0..free as usize {
+            entries.push((r, r, keys + r));
         }
         entries.sort_unstable();
         let free = free as usize;
@@ -497,18 +543,23 @@ impl<'a> System<'a> {
             row_start,
             slot,
             diagonal,
-            numeric: NumericLu::new(),
+            factor: Vec::new(),
             scratch: None,
         }
     }
 
-    /// Solves for the free vertices' `uv` given the fixed ones.
-    fn solve(&mut self, weights: &[Vec<(u32, f64)>], uv: &mut [DVec2]) -> Result<()> {
+    /// Solves for the free vertices' `uv` given the fixed ones, with the
+    /// symmetric `weights` divided by `divisor` at both ends.
+    fn solve(
+        &mut self,
+        weights: &[Vec<(u32, f64)>],
+        divisor: &[f64],
+        uv: &mut [DVec2],
+    ) -> Result<()> {
         let free = self.diagonal.len();
         if free == 0 {
             return Ok(());
         }
-        self.values.fill(0.0);
         let mut rhs = Mat::<f64>::zeros(free, 2);
         for (v, row) in weights.iter().enumerate() {
             let r = self.index[v];
@@ -518,18 +569,19 @@ impl<'a> System<'a> {
             let r = r as usize;
             let mut diagonal = 0.0;
             for (key, &(j, w)) in (self.row_start[v]..).zip(row) {
-                let w = if w.is_finite() && w > 0.0 { w } else { 1e-12 };
-                diagonal += w;
+                // Positive: `mean_value_weights` floors the weights, the
+                // divisors are stretches (floored too).
+                let a = w / (divisor[v] * divisor[j as usize]);
+                diagonal += a;
                 if self.index[j as usize] == u32::MAX {
-                    rhs[(r, 0)] += w * uv[j as usize].x;
-                    rhs[(r, 1)] += w * uv[j as usize].y;
-                } else {
-                    self.values[self.slot[key]] = -w;
+                    rhs[(r, 0)] += a * uv[j as usize].x;
+                    rhs[(r, 1)] += a * uv[j as usize].y;
+                } else if self.slot[key] != usize::MAX {
+                    self.values[self.slot[key]] = -a;
                 }
             }
-            self.values[self.diagonal[r]] = diagonal.max(1e-12);
+            self.values[self.diagonal[r]] = diagonal;
         }
-        // SAFETY-free construction: the pattern was checked when built.
         let pattern =
             SymbolicSparseColMatRef::new_checked(free, free, &self.col_ptr, None, &self.row_idx);
         let matrix = SparseColMatRef::new(pattern, &self.values);
@@ -540,26 +592,35 @@ impl<'a> System<'a> {
             .disk
             .symbolic
             .get_or_init(|| {
-                factorize_symbolic_lu(pattern, Default::default()).map_err(|e| format!("{e:?}"))
+                factorize_symbolic_cholesky(
+                    pattern,
+                    Side::Lower,
+                    SymmetricOrdering::Amd,
+                    Default::default(),
+                )
+                .map_err(|e| format!("{e:?}"))
             })
             .as_ref()
             .map_err(|e| Error::Remesh(format!("factoring the parameterization: {e}")))?;
         let scratch = self.scratch.get_or_insert_with(|| {
             MemBuffer::new(StackReq::any_of(&[
-                symbolic.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
+                symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
                 symbolic.solve_in_place_scratch::<f64>(2, Par::Seq),
             ]))
         });
-        let lu = symbolic
-            .factorize_numeric_lu(
-                &mut self.numeric,
+        self.factor.resize(symbolic.len_val(), 0.0);
+        let llt = symbolic
+            .factorize_numeric_llt(
+                &mut self.factor,
                 matrix,
+                Side::Lower,
+                LltRegularization::default(),
                 Par::Seq,
                 MemStack::new(scratch),
                 Default::default(),
             )
             .map_err(|e| fail(&e))?;
-        lu.solve_in_place_with_conj(Conj::No, rhs.as_mut(), Par::Seq, MemStack::new(scratch));
+        llt.solve_in_place_with_conj(Conj::No, rhs.as_mut(), Par::Seq, MemStack::new(scratch));
         for (v, p) in uv.iter_mut().enumerate() {
             let r = self.index[v];
             if r != u32::MAX {
@@ -615,4 +676,102 @@ fn stretch(disk: &Disk, density: &[f64], uv: &[DVec2]) -> (f64, Vec<f64>, usize)
         .map(|&(s, a)| if a > 0.0 { (s / a * scale).sqrt() } else { 1.0 })
         .collect();
     (total, per_vertex, flipped)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::TriMesh;
+    use crate::remesh::cut;
+
+    /// A bumpy open `n x n` grid patch: one boundary loop, already a disk.
+    fn patch(n: u32) -> TriMesh {
+        let mut positions = Vec::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                let (x, y) = (i as f64 / n as f64, j as f64 / n as f64);
+                let z = 0.3 * (7.0 * x).sin() * (5.0 * y).cos();
+                positions.push(DVec3::new(x, y, z));
+            }
+        }
+        let at = |i: u32, j: u32| j * (n + 1) + i;
+        let mut triangles = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+            }
+        }
+        TriMesh {
+            positions,
+            triangles,
+        }
+    }
+
+    #[test]
+    fn weights_are_symmetric_and_positive() {
+        let mesh = patch(8);
+        let disk = cut::cut_to_disk(&mesh, &cut::Topology::new(&mesh), &[]);
+        let w = mean_value_weights(&disk);
+        for (i, row) in w.iter().enumerate() {
+            for &(j, x) in row {
+                assert!(x > 0.0 && x.is_finite());
+                let back = w[j as usize].iter().find(|&&(k, _)| k as usize == i);
+                assert_eq!(back.map(|&(_, y)| y), Some(x), "w[{i}][{j}]");
+            }
+        }
+    }
+
+    /// A patch's disk, a uniform density, and divisors spread uniformly in
+    /// log scale over `orders` decades.
+    fn uneven_patch(orders: f64) -> (cut::Disk, Vec<f64>, Vec<f64>) {
+        let mesh = patch(24);
+        let disk = cut::cut_to_disk(&mesh, &cut::Topology::new(&mesh), &[]);
+        let density = vec![1.0; disk.triangles.len()];
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let divisor = (0..disk.positions.len())
+            .map(|_| {
+                state = state
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(1_442_695_040_888_963_407);
+                let t = (state >> 11) as f64 / (1u64 << 53) as f64;
+                10f64.powf((t - 0.5) * orders)
+            })
+            .collect();
+        (disk, density, divisor)
+    }
+
+    /// Positive weights give an embedding however unevenly the stretch
+    /// reweighting scales them (Tutte): divisors spread over 10 orders of
+    /// magnitude (the bunny's reach) fold no triangle, and a uniform scale
+    /// of them leaves the map alone up to rounding (the row scaling that
+    /// makes the system symmetric is exact).
+    #[test]
+    fn uneven_reweighting_folds_nothing() {
+        let (disk, density, divisor) = uneven_patch(10.0);
+        let map = parameterize_k(&disk, &density, 3, 0, Some(&divisor)).unwrap();
+        assert_eq!(map.flipped, 0);
+        let scaled: Vec<f64> = divisor.iter().map(|d| d * 1e6).collect();
+        let again = parameterize_k(&disk, &density, 3, 0, Some(&scaled)).unwrap();
+        let moved = map
+            .uv
+            .iter()
+            .zip(&again.uv)
+            .map(|(a, b)| a.distance(*b))
+            .fold(0.0, f64::max);
+        // Rounding only: far below a sample spacing (1e-3 to 1e-4).
+        assert!(moved < 1e-6, "a uniform scale moved a vertex by {moved:e}");
+    }
+
+    /// Beyond what rounding allows (30 orders of magnitude, where the
+    /// Cholesky factorization meets a non-positive pivot), the map starts
+    /// over from the plain weights rather than failing or folding.
+    #[test]
+    fn hopeless_reweighting_falls_back_to_the_plain_weights() {
+        let (disk, density, divisor) = uneven_patch(30.0);
+        let map = parameterize_k(&disk, &density, 3, 0, Some(&divisor)).unwrap();
+        let plain = parameterize_k(&disk, &density, 3, 0, None).unwrap();
+        assert_eq!(map.flipped, 0);
+        assert_eq!(map.uv, plain.uv);
+    }
 }
