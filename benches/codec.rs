@@ -8,7 +8,7 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use qm::lift::{Lifting, Quantizer, UpdateRule, synthetic::bumpy_sphere};
-use qm::{DecodeOptions, EncodeOptions};
+use qm::{DecodeOptions, EncodeOptions, Frames};
 
 const LEVEL: u32 = 9;
 
@@ -41,8 +41,14 @@ fn codec(c: &mut Criterion) {
     group
         .sample_size(10)
         .throughput(Throughput::Elements(samples));
+    // The default tries two frame sources and keeps one; one fixed source
+    // is a single encoding.
     group.bench_function("encode/lossless", |b| {
         b.iter(|| qm::compress(&mesh, &EncodeOptions::DEFAULT).unwrap())
+    });
+    let one_source = EncodeOptions::DEFAULT.with_frame_source(Frames::ParentsFrom(3));
+    group.bench_function("encode/lossless-one-frame-source", |b| {
+        b.iter(|| qm::compress(&mesh, &one_source).unwrap())
     });
     group.bench_function("decode/lossless", |b| {
         b.iter(|| qm::decompress(&full.bytes, &DecodeOptions::default()).unwrap())

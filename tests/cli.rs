@@ -130,10 +130,36 @@ fn info_json_reports_the_layout() {
     let out = qm(&["info", "world.qm", "--json"], dir.path());
     let w: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(
-        (&w["frames"], &w["normal_bits"]),
-        (&false.into(), &0.into())
+        (&w["frames"], &w["normal_bits"], &w["parent_frames_from"]),
+        (&false.into(), &0.into(), &serde_json::Value::Null)
     );
-    for name in ["cube", "world"] {
+    // A fixed frame source on request, written into the header.
+    let fixed = |level: &str, output: &str| {
+        let args = [
+            "compress",
+            "cube.obj",
+            "-o",
+            output,
+            "--quiet",
+            "--bits",
+            "12",
+            "--frames-from",
+            level,
+        ];
+        qm(&args, dir.path())
+    };
+    let out = fixed("4", "parents4.qm");
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = qm(&["info", "parents4.qm", "--json"], dir.path());
+    let p: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(
+        (&p["frames"], &p["parent_frames_from"]),
+        (&true.into(), &4.into())
+    );
+    let out = fixed("2", "parents2.qm");
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(!dir.path().join("parents2.qm").exists());
+    for name in ["cube", "world", "parents4"] {
         let out = qm(
             &[
                 "decompress",

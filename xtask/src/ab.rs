@@ -12,7 +12,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use indicatif::{ProgressBar, ProgressStyle};
-use qm::{DecodeOptions, EncodeOptions, RemeshOptions, UpdateRule, Weighting};
+use qm::{DecodeOptions, EncodeOptions, Frames, RemeshOptions, UpdateRule, Weighting};
 
 use crate::rd::{self, AtPsnr, bytes_at};
 
@@ -24,7 +24,7 @@ const TARGETS_DB: [f64; 4] = [60.0, 65.0, 70.0, 78.0];
 const BUDGETS: usize = 25;
 
 const USAGE: &str = "usage: cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--out FILE]\n  \
-    SPEC: comma-separated frames=on|off, normal=BITS, weight=BITS, update=none|paper|mean\n  \
+    SPEC: comma-separated frames=auto|off|LEVEL, normal=BITS, weight=BITS, update=none|paper|mean\n  \
     (A defaults to frames=off,normal=0, the version 1 coding; B to the defaults)";
 
 /// Parses a setting list into encoder options.
@@ -40,10 +40,12 @@ fn options(spec: &str) -> Result<EncodeOptions, String> {
                 .map_err(|_| format!("{item}: not a number"))
         };
         o = match key {
-            "frames" => o.with_frames(match value {
-                "on" => true,
-                "off" => false,
-                _ => return Err(format!("{item}: on or off")),
+            "frames" => o.with_frame_source(match value {
+                "on" | "auto" => Frames::Auto,
+                "off" => Frames::Off,
+                _ => Frames::ParentsFrom(
+                    number().map_err(|_| format!("{item}: on, auto, off or a level"))?,
+                ),
             }),
             "normal" => o.with_weighting(o.weighting.with_normal_bits(number()?)),
             "weight" => o.with_weighting(Weighting {

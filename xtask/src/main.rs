@@ -11,7 +11,7 @@
 //!   mesh (default: the bundled meshes in `assets/`), measured as surface
 //!   distance to the input; writes `rd.csv`, `table1.md`, `summary.md`,
 //!   `rd.svg` and `rd.png` (default into `target/rd/`). See [`rd`].
-//! - `remesh-bench [MESH ...]`: remesh time and peak memory per mesh, each in
+//! - `remesh-bench [--level L] [MESH ...]`: remesh time and peak memory per mesh, each in
 //!   a process of its own (default: the bunny and a generated 500k-vertex
 //!   torus). See [`remesh_bench`].
 //! - `ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC]`: two encoder settings
@@ -38,7 +38,7 @@ fn main() -> ExitCode {
         Some("ab") => ab::run(&args[1..]),
         _ => Err("usage: cargo xtask pass-table [MESH ...]\n       \
                   cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]\n       \
-                  cargo xtask remesh-bench [MESH ...]\n       \
+                  cargo xtask remesh-bench [--level L] [MESH ...]\n       \
                   cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--out FILE]"
             .to_string()),
     };

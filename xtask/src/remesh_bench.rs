@@ -1,10 +1,13 @@
-//! `cargo xtask remesh-bench [MESH ...]`: remesh time and peak memory.
+//! `cargo xtask remesh-bench [--level L] [MESH ...]`: remesh time and peak
+//! memory.
 //!
-//! Each mesh is remeshed with the defaults in a child process of its own, so
-//! that its peak resident memory (`VmHWM` of `/proc/self/status`) is its
-//! own; the child reports read, remesh and total times. Default meshes: the
-//! Stanford bunny from `../shared/models` (when present) and a generated
-//! bumpy torus of about 500k vertices. Prints a Markdown table.
+//! Each mesh is remeshed (with the defaults, or at level `L`) in a child
+//! process of its own, so that its peak resident memory (`VmHWM` of
+//! `/proc/self/status`) is its own; the child reports read and remesh
+//! times. A mesh is a file or `generated-torus-<N>k`, a bumpy torus of `N`
+//! thousand vertices. Default meshes: the Stanford bunny from
+//! `../shared/models` (when present) and `generated-torus-500k`. Prints a
+//! Markdown table.
 
 use std::f64::consts::TAU;
 use std::path::{Path, PathBuf};
@@ -14,14 +17,25 @@ use std::time::Instant;
 use qm::PolyMesh;
 use qm::lift::glam::DVec3;
 
-/// Name standing for the generated torus instead of a file.
-const TORUS: &str = "generated-torus-500k";
+/// Prefix of the names standing for a generated torus instead of a file.
+const TORUS: &str = "generated-torus-";
 
 pub fn run(args: &[String]) -> Result<(), String> {
-    if let [flag, mesh] = args
+    let mut args = args.to_vec();
+    let mut level = None;
+    if let Some(at) = args.iter().position(|a| a == "--level") {
+        let value = args.get(at + 1).ok_or("--level needs a value")?;
+        level = Some(
+            value
+                .parse::<u32>()
+                .map_err(|_| format!("--level {value}: not a level"))?,
+        );
+        args.drain(at..at + 2);
+    }
+    if let [flag, mesh] = &args[..]
         && flag == "--child"
     {
-        return child(mesh);
+        return child(mesh, level);
     }
     let meshes: Vec<String> = if args.is_empty() {
         let bunny = super::workspace().join("../shared/models/stanford-bunny.obj");
@@ -29,19 +43,21 @@ pub fn run(args: &[String]) -> Result<(), String> {
         if bunny.exists() {
             m.push(bunny.display().to_string());
         }
-        m.push(TORUS.to_string());
+        m.push(format!("{TORUS}500k"));
         m
     } else {
-        args.to_vec()
+        args
     };
     let me = std::env::current_exe().map_err(|e| e.to_string())?;
     println!("| mesh | input vertices | samples | read | remesh | peak memory |");
     println!("|---|---|---|---|---|---|");
     for mesh in meshes {
-        let out = Command::new(&me)
-            .args(["remesh-bench", "--child", &mesh])
-            .output()
-            .map_err(|e| format!("{mesh}: {e}"))?;
+        let mut command = Command::new(&me);
+        command.args(["remesh-bench", "--child", &mesh]);
+        if let Some(level) = level {
+            command.args(["--level", &level.to_string()]);
+        }
+        let out = command.output().map_err(|e| format!("{mesh}: {e}"))?;
         if !out.status.success() {
             return Err(format!(
                 "{mesh}: {}",
@@ -54,16 +70,24 @@ pub fn run(args: &[String]) -> Result<(), String> {
 }
 
 /// Runs in the child: one mesh, one table row.
-fn child(mesh: &str) -> Result<(), String> {
+fn child(mesh: &str, level: Option<u32>) -> Result<(), String> {
     let start = Instant::now();
-    let input = if mesh == TORUS {
-        bumpy_torus(1000, 500)
-    } else {
-        read(Path::new(mesh))?
+    let torus = mesh
+        .strip_prefix(TORUS)
+        .and_then(|n| n.strip_suffix('k'))
+        .and_then(|n| n.parse::<f64>().ok());
+    let input = match torus {
+        // n x m vertices with n = 2m.
+        Some(thousands) => {
+            let m = (thousands * 500.0).sqrt().round().max(3.0) as u32;
+            bumpy_torus(2 * m, m)
+        }
+        None => read(Path::new(mesh))?,
     };
     let read_s = start.elapsed().as_secs_f64();
     let start = Instant::now();
-    let remeshed = qm::remesh(&input, &qm::RemeshOptions::DEFAULT).map_err(|e| e.to_string())?;
+    let options = qm::RemeshOptions::DEFAULT.with_level(level);
+    let remeshed = qm::remesh(&input, &options).map_err(|e| e.to_string())?;
     let remesh_s = start.elapsed().as_secs_f64();
     let name = PathBuf::from(mesh)
         .file_name()

@@ -26,6 +26,16 @@ pub const MAGIC: [u8; 4] = [0x89, b'Q', b'M', b'\n'];
 /// The container version this build writes.
 pub const VERSION: u8 = 2;
 
+/// Largest [`Header::frames`]: parent-quad normals from level
+/// `MAX_LEVEL + 1` on, that is never.
+pub const MAX_FRAMES: u8 = qm_lift::MAX_LEVEL as u8 - 1;
+
+/// The first level whose frames use parent-quad normals for a
+/// [`Header::frames`] value, `None` for world axes.
+pub fn parent_frames_from(frames: u8) -> Option<u32> {
+    (frames > 0).then_some(frames as u32 + 2)
+}
+
 /// The oldest container version this build still reads. Version 1 had no
 /// `normal_bits` and `frames` fields: its details are in world axes.
 pub const OLDEST_VERSION: u8 = 1;
@@ -43,8 +53,9 @@ pub struct Header {
     pub weight_bits: u8,
     /// Extra weighting bits of the first (normal) coordinate (version 2).
     pub normal_bits: u8,
-    /// Details in local frames, normal first (1), or in world axes (0)
-    /// (version 2).
+    /// Details in world axes (0), or in local frames, normal first, whose
+    /// normals come from the parent quads from level `frames + 2` on
+    /// (`1..=`[`MAX_FRAMES`]; version 2).
     pub frames: u8,
     /// Quantization grid origin.
     pub origin: [f64; 3],
@@ -63,6 +74,12 @@ pub struct Header {
 }
 
 impl Header {
+    /// The first level whose frames use parent-quad normals, `None` for
+    /// world axes (see [`Self::frames`]).
+    pub fn parent_frames_from(&self) -> Option<u32> {
+        parent_frames_from(self.frames)
+    }
+
     /// What the bit-plane decoder must be told about the stream.
     pub fn stream_params(&self) -> qm_ezw::StreamParams {
         qm_ezw::StreamParams {
@@ -373,7 +390,7 @@ fn check_header(h: &Header, limits: &Limits) -> Result<()> {
             what: format!("unknown update rule {}", h.update),
         });
     }
-    if h.frames > 1 {
+    if h.frames > MAX_FRAMES {
         return Err(Error::Malformed {
             what: format!("unknown frame kind {}", h.frames),
         });

@@ -20,15 +20,17 @@
 //! place. Where the coarser quads are small and thin (a dense scan, a
 //! stretched corner of the parameterization) a small error in their corners
 //! turns their normal a lot: on the Stanford bunny, frames from the level
-//! `l - 1` quads lost up to 4 dB against world axes at 78 dB. So levels 1 and
-//! 2 use the level `l - 1` quads, and finer levels the level `l - 2` quads
-//! (the parent of each quad above): twice the size, and resolved a level
-//! earlier in the stream. Measured at equal bytes against world axes
-//! (`cargo xtask ab`, 60/65/70/78 dB): the bunny gains +1.2/+1.6/+1.4/+1.1 dB
-//! instead of losing 0.5/1.3/1.7/4.0. Starting at level 4 instead kept up to
-//! 1.8 dB more on fandisk at low rates but let the bunny lose 0.9 dB; starting
-//! at level 2 lost 0.8 dB on fandisk. Once the coarser levels are exact, so
-//! is the frame.
+//! `l - 1` quads lost up to 4 dB against world axes at 78 dB. So the finer
+//! levels use the level `l - 2` quads (the parent of each quad above): twice
+//! the size, and resolved a level earlier in the stream. From which level on
+//! is the stream's choice ([`crate::Lifting::with_parent_frames_from`]; the
+//! default is [`PARENTS_FROM`]). Measured at equal bytes against world axes
+//! (`cargo xtask ab`, 60/65/70/78 dB): parents from level 3 let the bunny
+//! gain +1.2/+1.6/+1.4/+1.1 dB instead of losing 0.5/1.3/1.7/4.0; from level 4
+//! gains up to 1.8 dB more on the smooth models but lets the bunny lose
+//! 0.9 dB; from level 2 lost 0.8 dB on fandisk. The encoder of `qm-io` tries
+//! 3 and 4 and keeps the better stream. Once the coarser levels are exact,
+//! so is the frame.
 //!
 //! **The rotation** maps the normal onto the first axis with two plane
 //! rotations (about `z`, then about `y`). Each is done as three integer
@@ -44,9 +46,11 @@
 use crate::layout::Layout;
 use crate::lifting::Coord;
 
-/// Quads per face side of the level `l - 1` grid from which frames use the
-/// level `l - 2` quads instead (levels 3 and finer).
-const COARSE_FROM: usize = 4;
+/// The default first level whose frames come from the level `l - 2`
+/// (parent) quads rather than the level `l - 1` ones. A stream may choose
+/// another (see [`crate::Lifting::with_parent_frames_from`]); 2 is the
+/// lowest that has parents.
+pub const PARENTS_FROM: u32 = 3;
 
 /// Which way [`apply`] turns the details.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -60,7 +64,15 @@ pub(crate) enum Turn {
 /// Turns the details of `level` (its odd samples) between world axes and
 /// their local frames; the even samples (the level `level - 1` mesh) must
 /// hold positions and are left as they are.
-pub(crate) fn apply(layout: &Layout, level: u32, data: &mut [Coord], turn: Turn) {
+///
+/// From level `parents_from` on, the normals come from the parent quads.
+pub(crate) fn apply(
+    layout: &Layout,
+    level: u32,
+    data: &mut [Coord],
+    turn: Turn,
+    parents_from: u32,
+) {
     let base = layout.base();
     let s = 1usize << (layout.level() - level + 1);
     let h = s / 2;
@@ -71,7 +83,7 @@ pub(crate) fn apply(layout: &Layout, level: u32, data: &mut [Coord], turn: Turn)
     // From level 3 on, the normals come from the level `level - 2` quads
     // (the frame then depends on a mesh a cut stream has resolved better,
     // and the quads are twice the size): see the module docs.
-    let coarse = if m >= COARSE_FROM { 2 } else { 1 };
+    let coarse = if level >= parents_from.max(2) { 2 } else { 1 };
     let (bs, bm) = (s * coarse, m / coarse);
     let mut quads = vec![[0i64; 3]; bm * bm];
     for f in 0..layout.face_count() {

@@ -89,7 +89,8 @@ impl UpdateRule {
 pub struct Lifting<'a> {
     layout: &'a Layout,
     update: UpdateRule,
-    frames: bool,
+    /// Local frames, with parent-quad normals from this level on.
+    frames: Option<u32>,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -114,14 +115,22 @@ impl<'a> Lifting<'a> {
         Lifting {
             layout,
             update,
-            frames: false,
+            frames: None,
         }
     }
 
     /// Expresses each level's details in the local frame of the coarser
     /// level's surface, normal component first (see [`crate::frames`]).
     pub fn with_frames(mut self, frames: bool) -> Self {
-        self.frames = frames;
+        self.frames = frames.then_some(frames::PARENTS_FROM);
+        self
+    }
+
+    /// Local frames (like [`Self::with_frames`]) whose normals come from the
+    /// parent quads from level `level` on (at least 2), from the level
+    /// `l - 1` quads below it; `None` turns frames off.
+    pub fn with_parent_frames_from(mut self, level: Option<u32>) -> Self {
+        self.frames = level.map(|l| l.max(2));
         self
     }
 
@@ -131,8 +140,8 @@ impl<'a> Lifting<'a> {
         let mut scratch = self.scratch();
         for level in (1..=self.layout.level()).rev() {
             self.level(level, data, Direction::Forward, &mut scratch);
-            if self.frames {
-                frames::apply(self.layout, level, data, Turn::ToLocal);
+            if let Some(from) = self.frames {
+                frames::apply(self.layout, level, data, Turn::ToLocal, from);
             }
         }
     }
@@ -148,8 +157,8 @@ impl<'a> Lifting<'a> {
     pub fn inverse_to(&self, data: &mut [Coord], to: u32) {
         let mut scratch = self.scratch();
         for level in 1..=to.min(self.layout.level()) {
-            if self.frames {
-                frames::apply(self.layout, level, data, Turn::ToWorld);
+            if let Some(from) = self.frames {
+                frames::apply(self.layout, level, data, Turn::ToWorld, from);
             }
             self.level(level, data, Direction::Inverse, &mut scratch);
         }
@@ -506,14 +515,14 @@ mod tests {
                 UpdateRule::Paper,
                 UpdateRule::MeanPreserving,
             ] {
-                for frames in [false, true] {
+                for frames in [None, Some(2), Some(3), Some(4), Some(13)] {
                     let original = pseudo_random(layout.sample_count(), 7);
                     let mut data = original.clone();
-                    let lifting = Lifting::new(&layout, rule).with_frames(frames);
+                    let lifting = Lifting::new(&layout, rule).with_parent_frames_from(frames);
                     lifting.forward(&mut data);
                     assert_ne!(data, original);
                     lifting.inverse(&mut data);
-                    assert_eq!(data, original, "{rule:?}, frames {frames}");
+                    assert_eq!(data, original, "{rule:?}, parent frames from {frames:?}");
                 }
             }
         }

@@ -34,7 +34,7 @@ pub use qm_param as param;
 pub use qm_tree as tree;
 
 pub use qm_io::{
-    Compressed, DecodeOptions, DecodeStatus, Decoder, Decompressed, EncodeOptions, Limits,
+    Compressed, DecodeOptions, DecodeStatus, Decoder, Decompressed, EncodeOptions, Frames, Limits,
     PolyMesh, UpdateRule, Weighting,
 };
 pub use qm_lift::SemiRegularMesh;

@@ -53,6 +53,11 @@ enum Command {
         /// scans; see the README).
         #[arg(long)]
         no_frames: bool,
+        /// Local frames take their normals from the parent quads from this
+        /// level on (default: 3 or 4, whichever codes the mesh better;
+        /// giving it skips the second encoding).
+        #[arg(long, conflicts_with = "no_frames", value_parser = clap::value_parser!(u32).range(3..=qm::lift::MAX_LEVEL as i64 + 1))]
+        frames_from: Option<u32>,
         /// No progress or summary output.
         #[arg(long)]
         quiet: bool,
@@ -149,6 +154,7 @@ fn main() -> ExitCode {
             bytes,
             level,
             no_frames,
+            frames_from,
             quiet,
         } => {
             let mut options = qm::EncodeOptions::DEFAULT
@@ -159,6 +165,9 @@ fn main() -> ExitCode {
                 options = options
                     .with_frames(false)
                     .with_weighting(qm::Weighting::LEVELS);
+            }
+            if let Some(level) = frames_from {
+                options = options.with_frame_source(qm::Frames::ParentsFrom(level));
             }
             compress(&input, output, &options, level, quiet)
         }
@@ -367,6 +376,7 @@ struct Info {
     weight_bits: u8,
     normal_bits: u8,
     frames: bool,
+    parent_frames_from: Option<u32>,
     base_vertices: u32,
     base_faces: u32,
     vertices: u64,
@@ -399,7 +409,8 @@ fn info(input: &Path, json: bool) -> Result<(), Failure> {
         update,
         weight_bits: h.weight_bits,
         normal_bits: h.normal_bits,
-        frames: h.frames == 1,
+        frames: h.frames > 0,
+        parent_frames_from: h.parent_frames_from(),
         base_vertices: h.base_vertices,
         base_faces: h.base_faces,
         vertices: base.sample_count(h.level as u32),
