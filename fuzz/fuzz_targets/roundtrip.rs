@@ -13,7 +13,7 @@
 use libfuzzer_sys::fuzz_target;
 use qm::lift::glam::DVec3;
 use qm::lift::{BaseMesh, Layout};
-use qm::{DecodeOptions, EncodeOptions, SemiRegularMesh, UpdateRule, Weighting};
+use qm::{DecodeOptions, EncodeOptions, Frames, SemiRegularMesh, UpdateRule, Weighting};
 
 fuzz_target!(|data: &[u8]| {
     let byte = |i: usize| data.get(i).copied().unwrap_or(0);
@@ -56,7 +56,12 @@ fuzz_target!(|data: &[u8]| {
         .with_bits(bits)
         .with_update(update)
         .with_weighting(weighting)
-        .with_frames(byte(3) & 0x80 != 0);
+        .with_frame_source(match byte(3) >> 6 {
+            0 => Frames::Off,
+            1 => Frames::Auto,
+            // Parents from level 3, 4 or 5 (above the level: never).
+            k => Frames::ParentsFrom(u32::from(k) + 1 + u32::from(byte(3) & 0x20 != 0)),
+        });
     let compressed = match qm::compress(&mesh, &options) {
         Ok(c) => c,
         // Refusing a degenerate mesh is allowed; panicking is not.
