@@ -200,3 +200,25 @@ fn version_1_streams_still_decode() {
     let cut = qm::decompress(&v1[..700], &DecodeOptions::default()).unwrap();
     assert!(cut.truncated && cut.values != old.values);
 }
+
+/// The first version 2 files had one kind of frames, parents from level 3
+/// (`frames = 1`); `tests/data/holed_grid_v2_frames1.qm` is `qm compress
+/// assets/quad/holed_grid_l4.obj --frames-from 3`, byte for byte what the
+/// build before the frame-source choice wrote by default. The encoder must
+/// still write it, and it must still decode exactly.
+#[test]
+fn first_version_2_frames_still_decode() {
+    let file = std::fs::read(asset("../tests/data/holed_grid_v2_frames1.qm")).unwrap();
+    let old = qm::decompress(&file, &DecodeOptions::default()).unwrap();
+    assert_eq!((file[4], old.header.frames), (2, 1));
+    let input = qm::read_mesh(&asset("quad/holed_grid_l4.obj")).unwrap();
+    let prepared = qm::detect(&input).unwrap();
+    let options = EncodeOptions::DEFAULT.with_frame_source(qm::Frames::ParentsFrom(3));
+    let new = qm::compress(&prepared.mesh, &options).unwrap();
+    assert_eq!(new.bytes, file);
+    assert_eq!(old.values, new.quantized);
+    // Read as parents from level 4 instead, the details would turn wrong.
+    let options = EncodeOptions::DEFAULT.with_frame_source(qm::Frames::ParentsFrom(4));
+    let other = qm::compress(&prepared.mesh, &options).unwrap();
+    assert_ne!(other.bytes, file);
+}

@@ -51,11 +51,13 @@ pub enum Frames {
 }
 
 /// The cuts at which [`Frames::Auto`] compares its candidates, as powers of
-/// two below the whole stream: `1/8`, `1/32` and `1/128` of it, where the
-/// surface is already close but the finest details are still missing
-/// (about 60 to 80 dB on the development models). Five cuts (every power
-/// from 3 to 7) chose the same source on all ten development models.
-pub const AUTO_CUTS: [u32; 3] = [3, 5, 7];
+/// two below what is sent (the whole stream, or the byte budget): `1/128`,
+/// `1/32` and `1/8` of it, shortest first so that each decode resumes from
+/// the last. There the surface is already close but the finest details are
+/// still missing (about 60 to 80 dB on the development models). Five cuts
+/// (every power from 3 to 7) chose the same source on all ten development
+/// models.
+pub const AUTO_CUTS: [u32; 3] = [7, 5, 3];
 
 impl EncodeOptions {
     /// The defaults: 16 bits, every pass, no size cap, mean-preserving
@@ -158,10 +160,11 @@ pub fn compress(mesh: &SemiRegularMesh, options: &EncodeOptions) -> Result<Compr
         Frames::ParentsFrom(level) => {
             let kind = level.checked_sub(2).filter(|&k| k >= 1);
             let kind = kind.filter(|&k| k <= container::MAX_FRAMES as u32);
-            let kind = kind.ok_or(Error::Limit {
-                what: "first level of parent-quad frames (from 3)",
+            let kind = kind.ok_or(Error::Setting {
+                what: "first level of parent-quad frames",
                 value: level as u64,
-                max: qm_lift::MAX_LEVEL as u64 + 1,
+                min: 3,
+                max: container::MAX_FRAMES as u64 + 2,
             })?;
             compress_with(mesh, options, kind as u8)?
         }
@@ -174,7 +177,12 @@ pub fn compress(mesh: &SemiRegularMesh, options: &EncodeOptions) -> Result<Compr
             } else {
                 let second = compress_with(mesh, options, 2)?;
                 let normals = sample_normals(mesh.layout(), &first.quantized);
-                let budgets = AUTO_CUTS.map(|k| first.bytes.len() >> k);
+                // Cuts of what will be sent, shortest first so that each
+                // decode resumes from the previous one's checkpoint.
+                let sent = options
+                    .max_bytes
+                    .map_or(first.bytes.len(), |m| m.min(first.bytes.len()));
+                let budgets = AUTO_CUTS.map(|k| sent >> k);
                 let score = |c: &Compressed| cut_error(c, &normals, &budgets);
                 if score(&second)? < score(&first)? {
                     second
@@ -273,7 +281,8 @@ fn sample_normals(layout: &Layout, values: &[Coord]) -> Vec<DVec3> {
 /// squared error along the surface normal (what a surface distance sees;
 /// sliding along the surface costs nothing).
 fn cut_error(compressed: &Compressed, normals: &[DVec3], budgets: &[usize]) -> Result<f64> {
-    let decoder = Decoder::new(&compressed.bytes, &Limits::default())?;
+    // The encoder's own bytes: the decoder's default limits do not apply.
+    let decoder = Decoder::new(&compressed.bytes, &Limits::NONE)?;
     let stream = &compressed.bytes[decoder.stream_start()..];
     let mut values = Vec::new();
     let mut total = 0.0;

@@ -216,6 +216,16 @@ impl Limits {
     }
 }
 
+impl Limits {
+    /// No limits beyond what the format itself can describe: for bytes the
+    /// caller wrote itself.
+    pub const NONE: Limits = Limits {
+        max_base_vertices: u32::MAX,
+        max_base_faces: u32::MAX,
+        max_samples: u64::MAX,
+    };
+}
+
 impl Default for Limits {
     fn default() -> Self {
         Limits::DEFAULT

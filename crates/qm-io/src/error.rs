@@ -29,6 +29,13 @@ pub enum Error {
     Checksum { section: &'static str },
     /// A header or base mesh field is malformed.
     Malformed { what: String },
+    /// An encoder setting is outside its range.
+    Setting {
+        what: &'static str,
+        value: u64,
+        min: u64,
+        max: u64,
+    },
     /// A field asks for more than the decoder's limits allow.
     Limit {
         what: &'static str,
@@ -70,6 +77,12 @@ impl fmt::Display for Error {
             ),
             Error::Checksum { section } => write!(f, "checksum mismatch: the {section} is corrupt"),
             Error::Malformed { what } => write!(f, "malformed stream: {what}"),
+            Error::Setting {
+                what,
+                value,
+                min,
+                max,
+            } => write!(f, "{what} is {value}, outside {min} to {max}"),
             Error::Limit { what, value, max } => {
                 write!(f, "{what} is {value}, above the limit of {max}")
             }

@@ -80,7 +80,8 @@ pub(crate) fn apply(
     let side = layout.n() + 1;
     // Normals of the face's level `level - 1` quads, each used by up to
     // five odd samples.
-    // From level 3 on, the normals come from the level `level - 2` quads
+    // From level `parents_from` on, the normals come from the level
+    // `level - 2` quads
     // (the frame then depends on a mesh a cut stream has resolved better,
     // and the quads are twice the size): see the module docs.
     let coarse = if level >= parents_from.max(2) { 2 } else { 1 };

@@ -505,10 +505,9 @@ fn symmetrized(weights: &[Vec<(u32, f64)>]) -> Vec<Vec<(u32, f64)>> {
 /// models.
 ///
 /// For the Cholesky factorization only the lower triangle is stored. The
-/// pattern is built once; every solve
-/// refills the values and reuses the disk's symbolic factorization and this
-/// system's factor storage and scratch memory, so the reweighting iterations
-/// allocate nothing large.
+/// pattern is built once; every solve refills the values and reuses the
+/// disk's symbolic factorization and this system's factor storage and
+/// factorization scratch (the BiCGSTAB vectors are allocated per solve).
 struct System<'a> {
     disk: &'a Disk,
     /// The unknown of each disk vertex (`u32::MAX` for fixed ones).
