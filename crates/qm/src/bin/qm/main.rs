@@ -427,7 +427,7 @@ fn info(input: &Path, json: bool) -> Result<(), Failure> {
         let value = serde_json::to_value(&info).expect("plain data serializes");
         for (key, v) in value.as_object().expect("a struct is an object") {
             println!(
-                "{key:>14}: {}",
+                "{key:>18}: {}",
                 v.as_str().map_or(v.to_string(), str::to_string)
             );
         }
