@@ -155,8 +155,12 @@ pub fn compress(mesh: &SemiRegularMesh, options: &EncodeOptions) -> Result<Compr
             });
         }
     }
+    let quantizer = Quantizer::fit(mesh.positions(), options.bits)?;
+    let quantized = quantizer.quantize_all(mesh.positions());
+    let compress_with =
+        |frames| compress_with(mesh.layout(), quantizer, &quantized, options, frames);
     let mut compressed = match options.frames {
-        Frames::Off => compress_with(mesh, options, 0)?,
+        Frames::Off => compress_with(0)?,
         Frames::ParentsFrom(level) => {
             let kind = level.checked_sub(2).filter(|&k| k >= 1);
             let kind = kind.filter(|&k| k <= container::MAX_FRAMES as u32);
@@ -166,17 +170,17 @@ pub fn compress(mesh: &SemiRegularMesh, options: &EncodeOptions) -> Result<Compr
                 min: 3,
                 max: container::MAX_FRAMES as u64 + 2,
             })?;
-            compress_with(mesh, options, kind as u8)?
+            compress_with(kind as u8)?
         }
         Frames::Auto => {
             // Parents from level 3 (kind 1) or 4 (kind 2); they differ only
             // where level 3 exists.
-            let first = compress_with(mesh, options, 1)?;
+            let first = compress_with(1)?;
             if mesh.layout().level() < 3 {
                 first
             } else {
-                let second = compress_with(mesh, options, 2)?;
-                let normals = sample_normals(mesh.layout(), &first.quantized);
+                let second = compress_with(2)?;
+                let normals = sample_normals(mesh.layout(), &quantized);
                 // Cuts of what will be sent, shortest first so that each
                 // decode resumes from the previous one's checkpoint.
                 let sent = options
@@ -209,16 +213,16 @@ pub fn compress(mesh: &SemiRegularMesh, options: &EncodeOptions) -> Result<Compr
     Ok(compressed)
 }
 
-/// [`compress`] with header frame kind `frames`, whole stream.
+/// [`compress`] of the `quantized` samples with header frame kind
+/// `frames`, whole stream.
 fn compress_with(
-    mesh: &SemiRegularMesh,
+    layout: &Layout,
+    quantizer: Quantizer,
+    quantized: &[Coord],
     options: &EncodeOptions,
     frames: u8,
 ) -> Result<Compressed> {
-    let layout = mesh.layout();
-    let quantizer = Quantizer::fit(mesh.positions(), options.bits)?;
-    let quantized = quantizer.quantize_all(mesh.positions());
-    let mut data = quantized.clone();
+    let mut data = quantized.to_vec();
     Lifting::new(layout, options.update)
         .with_parent_frames_from(container::parent_frames_from(frames))
         .forward(&mut data);
@@ -255,7 +259,7 @@ fn compress_with(
         header_bytes,
         base_bytes,
         pass_ends,
-        quantized,
+        quantized: quantized.to_vec(),
         quantizer,
     })
 }

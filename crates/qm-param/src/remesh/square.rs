@@ -345,15 +345,14 @@ fn parameterize_with(
     }
     snap_corners(disk, &segs, k, &mut uv);
     let weights = mean_value_weights(disk);
-    let symmetric = symmetrized(&weights);
     let mut divisor = match start {
         Some(d) => d.to_vec(),
         None => vec![1.0; disk.positions.len()],
     };
-    let mut system = System::new(disk, &symmetric, &fixed, lu_below);
+    let mut system = System::new(disk, &weights, &fixed, lu_below);
     let mut best: Option<SquareMap> = None;
     for _ in 0..=iterations {
-        if let Err(e) = system.solve(&weights, &symmetric, &divisor, &mut uv) {
+        if let Err(e) = system.solve(&weights, &divisor, &mut uv) {
             // Reweighting spreads the weights over many orders of magnitude
             // (up to 1e10 on the bunny); far beyond that the factorization
             // loses definiteness to rounding. Keep the best map so far, or
@@ -365,7 +364,7 @@ fn parameterize_with(
                 return Err(e);
             }
             divisor.fill(1.0);
-            system.solve(&weights, &symmetric, &divisor, &mut uv)?;
+            system.solve(&weights, &divisor, &mut uv)?;
         }
         let (stretch, vertex_stretch, flipped) = stretch(disk, density, &uv);
         let previous = best.as_ref().map(|b| (b.flipped, b.stretch));
@@ -499,10 +498,10 @@ fn symmetrized(weights: &[Vec<(u32, f64)>]) -> Vec<Vec<(u32, f64)>> {
 /// symbolic and 2.75 s per factorization at 500k), the symmetric part's
 /// sparse Cholesky factorization (AMD ordering, 0.78 s at 500k and a third
 /// of the memory) preconditions BiCGSTAB on the mean-value system itself,
-/// which converges in 3 to 9 iterations. The symmetric solution alone would
-/// not do: without the mean-value weights' linear precision flat parts are
-/// sampled unevenly, which cost 4% to 29% more bytes on the development
-/// models.
+/// which converges in 3 to 13 iterations (the 500k torus, igea). The
+/// symmetric solution alone would not do: without the mean-value weights'
+/// linear precision flat parts are sampled unevenly, which made lossless
+/// files 2% to 29% larger on the development models.
 ///
 /// For the Cholesky factorization only the lower triangle is stored. The
 /// pattern is built once; every solve refills the values and reuses the
@@ -512,7 +511,8 @@ struct System<'a> {
     disk: &'a Disk,
     /// The unknown of each disk vertex (`u32::MAX` for fixed ones).
     index: Vec<u32>,
-    /// Column pointers and row indices of the lower triangle.
+    /// Column pointers and row indices of the matrix (of its lower triangle
+    /// for the Cholesky factorization).
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
     /// Per vertex, where its weight row starts in `slot`.
@@ -526,8 +526,10 @@ struct System<'a> {
     /// Small systems: an LU of the mean-value system itself.
     lu: bool,
     numeric: NumericLu<usize, f64>,
-    /// Large ones: the Cholesky factor of its symmetric part.
+    /// Large ones: the Cholesky factor of its symmetric part, made from
+    /// the symmetrized weights.
     factor: Vec<f64>,
+    symmetric: Option<Vec<Vec<(u32, f64)>>>,
     scratch: Option<MemBuffer>,
 }
 
@@ -593,17 +595,16 @@ impl<'a> System<'a> {
             lu,
             numeric: NumericLu::new(),
             factor: Vec::new(),
+            symmetric: (!lu).then(|| symmetrized(weights)),
             scratch: None,
         }
     }
 
     /// Solves for the free vertices' `uv` given the fixed ones: the system
-    /// of the mean-value `weights` divided by `divisor` at the far end,
-    /// through the factorization of its `symmetric` part.
+    /// of the mean-value `weights` divided by `divisor` at the far end.
     fn solve(
         &mut self,
         weights: &[Vec<(u32, f64)>],
-        symmetric: &[Vec<(u32, f64)>],
         divisor: &[f64],
         uv: &mut [DVec2],
     ) -> Result<()> {
@@ -614,7 +615,7 @@ impl<'a> System<'a> {
         if self.lu {
             self.solve_lu(weights, divisor, uv)
         } else {
-            self.solve_cholesky(weights, symmetric, divisor, uv)
+            self.solve_cholesky(weights, divisor, uv)
         }
     }
 
@@ -710,12 +711,13 @@ impl<'a> System<'a> {
     fn solve_cholesky(
         &mut self,
         weights: &[Vec<(u32, f64)>],
-        symmetric: &[Vec<(u32, f64)>],
         divisor: &[f64],
         uv: &mut [DVec2],
     ) -> Result<()> {
         let free = self.diagonal.len();
-        self.fill(symmetric, |v, j| divisor[v] * divisor[j], uv);
+        let symmetric = self.symmetric.take().expect("made for this path");
+        self.fill(&symmetric, |v, j| divisor[v] * divisor[j], uv);
+        self.symmetric = Some(symmetric);
         let pattern =
             SymbolicSparseColMatRef::new_checked(free, free, &self.col_ptr, None, &self.row_idx);
         let matrix = SparseColMatRef::new(pattern, &self.values);
@@ -1090,6 +1092,14 @@ mod tests {
         (disk, density, divisor)
     }
 
+    /// How far apart two maps of one disk put any vertex.
+    fn farthest(a: &SquareMap, b: &SquareMap) -> f64 {
+        a.uv.iter()
+            .zip(&b.uv)
+            .map(|(p, q)| p.distance(*q))
+            .fold(0.0, f64::max)
+    }
+
     /// Positive weights give an embedding however unevenly the stretch
     /// reweighting scales them (Tutte): divisors spread at random over 8
     /// orders of magnitude, neighbour to neighbour (the bunny's reach over
@@ -1104,12 +1114,7 @@ mod tests {
         assert_eq!(map.flipped, 0);
         let scaled: Vec<f64> = divisor.iter().map(|d| d * 1e6).collect();
         let again = parameterize_with(&disk, &density, 3, 0, Some(&scaled), 0).unwrap();
-        let moved = map
-            .uv
-            .iter()
-            .zip(&again.uv)
-            .map(|(a, b)| a.distance(*b))
-            .fold(0.0, f64::max);
+        let moved = farthest(&map, &again);
         // Rounding only: far below a sample spacing (1e-3 to 1e-4).
         assert!(moved < 1e-6, "a uniform scale moved a vertex by {moved:e}");
     }
@@ -1122,12 +1127,7 @@ mod tests {
         let (other, _, _) = uneven_patch(4.0);
         let lu = parameterize_with(&disk, &density, 3, 0, Some(&divisor), usize::MAX).unwrap();
         let iterative = parameterize_with(&other, &density, 3, 0, Some(&divisor), 0).unwrap();
-        let apart = lu
-            .uv
-            .iter()
-            .zip(&iterative.uv)
-            .map(|(a, b)| a.distance(*b))
-            .fold(0.0, f64::max);
+        let apart = farthest(&lu, &iterative);
         assert!(apart < 1e-7, "the solvers differ by {apart:e}");
         // And the symmetric part alone would not do: the mean-value system
         // is not symmetric.
