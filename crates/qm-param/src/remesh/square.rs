@@ -494,7 +494,7 @@ fn symmetrized(weights: &[Vec<(u32, f64)>]) -> Vec<Vec<(u32, f64)>> {
 /// Dirichlet Laplacian, positive definite.
 ///
 /// Below [`LU_BELOW`] unknowns a sparse LU solves the system directly.
-/// Above, where the LU's COLAMD ordering and fill grow fast (4.5 s of
+/// Above, where the LU's COLAMD ordering and fill grow fast (about 4.7 s of
 /// symbolic and 2.75 s per factorization at 500k), the symmetric part's
 /// sparse Cholesky factorization (AMD ordering, 0.78 s at 500k and a third
 /// of the memory) preconditions BiCGSTAB on the mean-value system itself,
