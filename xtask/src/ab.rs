@@ -1,10 +1,11 @@
-//! `ab`: two encoder settings on the same remeshed models, compared at equal
-//! bytes.
+//! `ab`: two encoder (and remesher) settings on the same models, compared at
+//! equal bytes.
 //!
-//! Each model is prepared once (remeshed unless it has subdivision
-//! connectivity) and compressed losslessly with settings A and B; each
-//! stream is decoded at the same log-spaced byte budgets and measured against
-//! the input with the surface distance of `rd-curve`. The table gives, at the
+//! Each model is prepared (remeshed unless it has subdivision connectivity),
+//! once if A and B remesh alike and once per side if not (`remesh=`), and
+//! compressed losslessly with settings A and B; each stream is decoded at
+//! the same log-spaced byte budgets and measured against the input with the
+//! surface distance of `rd-curve`. The table gives, at the
 //! sizes where A reaches 60, 65, 70 and 78 dB, the PSNR B reaches with the
 //! same bytes (the gain) and the bytes B needs for the same PSNR (the ratio).
 
@@ -24,12 +25,14 @@ const TARGETS_DB: [f64; 4] = [60.0, 65.0, 70.0, 78.0];
 const BUDGETS: usize = 25;
 
 const USAGE: &str = "usage: cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--out FILE]\n  \
-    SPEC: comma-separated frames=auto|off|LEVEL, normal=BITS, weight=BITS, update=none|paper|mean\n  \
+    SPEC: comma-separated frames=auto|off|LEVEL, normal=BITS, weight=BITS, update=none|paper|mean,\n  \
+    remesh=normal|plain (with or without the remesher's normal placement)\n  \
     (A defaults to frames=off,normal=0, the version 1 coding; B to the defaults)";
 
-/// Parses a setting list into encoder options.
-fn options(spec: &str) -> Result<EncodeOptions, String> {
+/// Parses a setting list into encoder and remesher options.
+fn options(spec: &str) -> Result<(EncodeOptions, RemeshOptions), String> {
     let mut o = EncodeOptions::DEFAULT;
+    let mut r = RemeshOptions::DEFAULT;
     for item in spec.split(',').filter(|s| !s.is_empty()) {
         let (key, value) = item
             .split_once('=')
@@ -58,10 +61,18 @@ fn options(spec: &str) -> Result<EncodeOptions, String> {
                 "mean" => UpdateRule::MeanPreserving,
                 _ => return Err(format!("{item}: none, paper or mean")),
             }),
+            "remesh" => {
+                r = r.with_normal(match value {
+                    "normal" => true,
+                    "plain" => false,
+                    _ => return Err(format!("{item}: normal or plain")),
+                });
+                o
+            }
             _ => return Err(format!("{item}: unknown setting\n{USAGE}")),
         };
     }
-    Ok(o)
+    Ok((o, r))
 }
 
 pub fn run(args: &[String]) -> Result<(), String> {
@@ -100,7 +111,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
             files.push(m);
         }
     }
-    let (oa, ob) = (options(&a)?, options(&b)?);
+    let ((oa, ra), (ob, rb)) = (options(&a)?, options(&b)?);
     let bar = ProgressBar::new((files.len() * 2 * BUDGETS) as u64);
     bar.set_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} {msg}")
@@ -116,7 +127,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
     );
     let _ = writeln!(
         table,
-        "| model | lossless A / B | {} |\n|---|---|{}",
+        "| model | lossless A / B | remesh PSNR A / B | {} |\n|---|---|---|{}",
         head.join(" | "),
         "---|".repeat(TARGETS_DB.len())
     );
@@ -125,15 +136,46 @@ pub fn run(args: &[String]) -> Result<(), String> {
         let at = |e: String| format!("{}: {e}", file.display());
         bar.set_message(format!("{name}: prepare"));
         let input = qm::read_mesh(file).map_err(|e| at(e.to_string()))?;
-        let prepared =
-            qm::prepare(&input, &RemeshOptions::DEFAULT).map_err(|e| at(e.to_string()))?;
+        let prepared_a = qm::prepare(&input, &ra).map_err(|e| at(e.to_string()))?;
+        let prepared_b = if rb == ra {
+            None
+        } else {
+            bar.set_message(format!("{name}: prepare B"));
+            Some(qm::prepare(&input, &rb).map_err(|e| at(e.to_string()))?)
+        };
         let mut curves = Vec::new();
         let mut sizes = Vec::new();
-        for (label, o) in [("A", &oa), ("B", &ob)] {
-            let c = qm::compress(&prepared.mesh, o).map_err(|e| at(e.to_string()))?;
-            let first = c.header_bytes + c.base_bytes;
+        let mut floors = Vec::new();
+        let mut streams = Vec::new();
+        for (o, prepared) in [
+            (&oa, &prepared_a),
+            (&ob, prepared_b.as_ref().unwrap_or(&prepared_a)),
+        ] {
+            streams.push(qm::compress(&prepared.mesh, o).map_err(|e| at(e.to_string()))?);
+            // How far the semi-regular mesh itself is from the input.
+            let layout = prepared.mesh.layout();
+            let remeshed = qm::PolyMesh::from_faces(
+                prepared.mesh.positions().to_vec(),
+                &layout.quads(layout.level()),
+            );
+            floors.push(rd::measure(&input, &remeshed).map_err(at)?.psnr_db);
+        }
+        // One grid of budgets for both streams, so that interpolating
+        // between its points errs alike on both curves.
+        let first = |c: &qm::Compressed| c.header_bytes + c.base_bytes;
+        let grid = rd::budgets(
+            streams.iter().map(first).min().unwrap_or(0),
+            streams.iter().map(|c| c.bytes.len()).max().unwrap_or(0),
+            BUDGETS,
+        );
+        for (label, c) in ["A", "B"].iter().zip(&streams) {
             let mut curve = Vec::new();
-            for bytes in rd::budgets(first, c.bytes.len(), BUDGETS) {
+            let budgets = grid
+                .iter()
+                .copied()
+                .filter(|&b| b >= first(c) && b < c.bytes.len())
+                .chain([c.bytes.len()]);
+            for bytes in budgets {
                 bar.set_message(format!("{name}: {label} {bytes} B"));
                 let d = qm::decompress(
                     &c.bytes,
@@ -164,9 +206,11 @@ pub fn run(args: &[String]) -> Result<(), String> {
         }
         let _ = writeln!(
             table,
-            "| {name} | {} / {} B | {} |",
+            "| {name} | {} / {} B | {:.2} / {:.2} dB | {} |",
             sizes[0],
             sizes[1],
+            floors[0],
+            floors[1],
             cells.join(" | ")
         );
         for (label, curve) in ["A", "B"].iter().zip(&curves) {

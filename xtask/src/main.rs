@@ -14,8 +14,12 @@
 //! - `remesh-bench [--level L] [MESH ...]`: remesh time and peak memory per mesh, each in
 //!   a process of its own (default: the bunny and a generated 500k-vertex
 //!   torus). See [`remesh_bench`].
-//! - `ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC]`: two encoder settings
-//!   compared at equal bytes on the same remeshed models. See [`ab`].
+//! - `ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC]`: two encoder (and
+//!   remesher) settings compared at equal bytes on the same models. See
+//!   [`ab`].
+//! - `details [FILE|DIR ...]`: remesh PSNR, lossless size and the tangential
+//!   share of the codec's details, with and without the remesher's normal
+//!   placement. See [`details`].
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -23,6 +27,7 @@ use std::process::ExitCode;
 use qm::{DecodeOptions, EncodeOptions};
 
 mod ab;
+mod details;
 mod plot;
 mod rd;
 mod remesh_bench;
@@ -36,10 +41,12 @@ fn main() -> ExitCode {
         Some("rd-curve") => rd::run(&args[1..]),
         Some("remesh-bench") => remesh_bench::run(&args[1..]),
         Some("ab") => ab::run(&args[1..]),
+        Some("details") => details::run(&args[1..]),
         _ => Err("usage: cargo xtask pass-table [MESH ...]\n       \
                   cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]\n       \
                   cargo xtask remesh-bench [--level L] [MESH ...]\n       \
-                  cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--out FILE]"
+                  cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--out FILE]\n       \
+                  cargo xtask details [FILE|DIR ...]"
             .to_string()),
     };
     match result {

@@ -73,6 +73,79 @@ pub(crate) fn apply(
     turn: Turn,
     parents_from: u32,
 ) {
+    walk(layout, level, data, &mut Turner(turn), parents_from);
+}
+
+/// The frame normal of every odd sample of `level`, as `(sample id,
+/// normal)`, computed from the even samples of `data` (the level
+/// `level - 1` mesh, positions) exactly as the transform computes it; the
+/// normal is not normalized (see the module docs for its length) and is
+/// zero where there is no quad to take it from. Each odd sample appears
+/// once. For tools that shape a mesh to suit the frames, such as a
+/// remesher that makes the details normal. `parents_from` is the stream's
+/// first level with frames from the parent quads
+/// ([`crate::Lifting::with_parent_frames_from`]).
+pub fn normals(
+    layout: &Layout,
+    level: u32,
+    data: &[Coord],
+    parents_from: u32,
+) -> Vec<(u32, [i64; 3])> {
+    struct Collect(Vec<(u32, [i64; 3])>);
+    impl Visit for Collect {
+        fn visit(
+            &mut self,
+            data: &mut [Coord],
+            id: usize,
+            normal: impl FnOnce(&[Coord]) -> [i64; 3],
+        ) {
+            self.0.push((id as u32, normal(data)));
+        }
+    }
+    // The walk is shared with the in-place turning, which writes the odd
+    // samples, so it takes the samples mutably: collect from a copy.
+    let mut copy = data.to_vec();
+    let mut collect = Collect(Vec::new());
+    walk(layout, level, &mut copy, &mut collect, parents_from);
+    collect.0
+}
+
+/// What [`walk`] does at each odd sample.
+trait Visit {
+    /// `id` is the odd sample; `normal` computes its frame normal from the
+    /// even samples of `data`.
+    fn visit(&mut self, data: &mut [Coord], id: usize, normal: impl FnOnce(&[Coord]) -> [i64; 3]);
+}
+
+/// Turns each nonzero detail by the frame of its normal (zero in any frame,
+/// and most fine details of a short prefix are, so their normal is never
+/// computed).
+struct Turner(Turn);
+
+impl Visit for Turner {
+    fn visit(&mut self, data: &mut [Coord], id: usize, normal: impl FnOnce(&[Coord]) -> [i64; 3]) {
+        if data[id] == [0; 3] {
+            return;
+        }
+        let frame = Frame::new(normal(data));
+        let v = &mut data[id];
+        *v = match self.0 {
+            Turn::ToLocal => frame.to_local(*v),
+            Turn::ToWorld => frame.to_world(*v),
+        };
+    }
+}
+
+/// Visits every odd sample of `level` once (base edges by the face that
+/// owns them) with the way to compute its frame normal; from level
+/// `parents_from` on, the normals come from the parent quads.
+fn walk(
+    layout: &Layout,
+    level: u32,
+    data: &mut [Coord],
+    visitor: &mut impl Visit,
+    parents_from: u32,
+) {
     let base = layout.base();
     let s = 1usize << (layout.level() - level + 1);
     let h = s / 2;
@@ -118,6 +191,7 @@ pub(crate) fn apply(
             let (x, y) = (x.unwrap_or([0; 3]), y.unwrap_or([0; 3]));
             [x[0] + y[0], x[1] + y[1], x[2] + y[2]]
         };
+        let id = |i: usize, j: usize| grid[j * side + i] as usize;
         for b in 0..=m {
             for a in 0..=m {
                 let (i, j) = (a * s, b * s);
@@ -126,49 +200,25 @@ pub(crate) fn apply(
                 let column_owned = (a != 0 || owns(3)) && (a != m || owns(1));
                 // Horizontal edge point: quads above and below its edge.
                 if a < m && row_owned {
-                    turn_at(layout, f, i + h, j, data, turn, |data| {
+                    visitor.visit(data, id(i + h, j), |data| {
                         sum(quad(data, ai, bi), quad(data, ai, bi - 1))
                     });
                 }
                 // Vertical edge point: quads right and left of its edge.
                 if b < m && column_owned {
-                    turn_at(layout, f, i, j + h, data, turn, |data| {
+                    visitor.visit(data, id(i, j + h), |data| {
                         sum(quad(data, ai, bi), quad(data, ai - 1, bi))
                     });
                 }
                 // Face point: its own quad.
                 if a < m && b < m {
-                    turn_at(layout, f, i + h, j + h, data, turn, |data| {
+                    visitor.visit(data, id(i + h, j + h), |data| {
                         quad(data, ai, bi).unwrap_or([0; 3])
                     });
                 }
             }
         }
     }
-}
-
-/// Turns the detail at `(i, j)` of face `f` by the frame of the normal that
-/// `normal` computes (only when the detail is not zero: zero in any frame,
-/// and most fine details of a short prefix are).
-fn turn_at(
-    layout: &Layout,
-    f: usize,
-    i: usize,
-    j: usize,
-    data: &mut [Coord],
-    turn: Turn,
-    normal: impl FnOnce(&[Coord]) -> [i64; 3],
-) {
-    let id = layout.sample(f, i, j) as usize;
-    if data[id] == [0; 3] {
-        return;
-    }
-    let frame = Frame::new(normal(data));
-    let v = &mut data[id];
-    *v = match turn {
-        Turn::ToLocal => frame.to_local(*v),
-        Turn::ToWorld => frame.to_world(*v),
-    };
 }
 
 /// Normal of the quad with corner `(a, b)` and side `s` (grid units of face

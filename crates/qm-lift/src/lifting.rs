@@ -97,6 +97,8 @@ pub struct Lifting<'a> {
 enum Direction {
     Forward,
     Inverse,
+    /// Odd samples are replaced by their prediction ([`Lifting::predict`]).
+    Predict,
 }
 
 /// Scratch buffers reused across faces and levels.
@@ -164,6 +166,17 @@ impl<'a> Lifting<'a> {
         }
     }
 
+    /// Replaces every odd sample of `level` by its prediction from the
+    /// level's even samples (the level `level - 1` mesh, positions), the
+    /// value the forward transform subtracts from it; the other samples are
+    /// left as they are, and the update rule plays no part. For tools that
+    /// shape a mesh to suit the transform, such as a remesher that makes
+    /// the details normal (with [`crate::frames::normals`]).
+    pub fn predict(&self, level: u32, data: &mut [Coord]) {
+        let mut scratch = self.scratch();
+        self.level(level, data, Direction::Predict, &mut scratch);
+    }
+
     fn scratch(&self) -> Scratch {
         let m = self.layout.n() / 2;
         Scratch {
@@ -174,21 +187,17 @@ impl<'a> Lifting<'a> {
         }
     }
 
+    /// One level: going forward, predict then update; going back, the
+    /// reverse; for [`Direction::Predict`], the prediction alone.
     fn level(&self, level: u32, data: &mut [Coord], dir: Direction, scratch: &mut Scratch) {
-        let faces = self.layout.face_count();
-        match dir {
-            Direction::Forward => {
-                for f in 0..faces {
-                    self.predict_face(f, level, data, dir, scratch);
-                }
-                self.update(level, data, 1, scratch);
-            }
-            Direction::Inverse => {
-                self.update(level, data, -1, scratch);
-                for f in 0..faces {
-                    self.predict_face(f, level, data, dir, scratch);
-                }
-            }
+        if dir == Direction::Inverse {
+            self.update(level, data, -1, scratch);
+        }
+        for f in 0..self.layout.face_count() {
+            self.predict_face(f, level, data, dir, scratch);
+        }
+        if dir == Direction::Forward {
+            self.update(level, data, 1, scratch);
         }
     }
 
@@ -317,10 +326,10 @@ impl<'a> Lifting<'a> {
             let v = &mut data[id as usize];
             for k in 0..3 {
                 let q = pred[k] as i32;
-                v[k] = if dir == Direction::Forward {
-                    v[k] - q
-                } else {
-                    v[k] + q
+                v[k] = match dir {
+                    Direction::Forward => v[k] - q,
+                    Direction::Inverse => v[k] + q,
+                    Direction::Predict => q,
                 };
             }
         };
@@ -556,5 +565,52 @@ mod tests {
         lifting.forward(&mut data);
         let nonzero = data[16..].iter().filter(|d| **d != [0, 0, 0]).count();
         assert_eq!(nonzero, 0);
+    }
+
+    /// Without update the evens stay as they are, so each level's details
+    /// are the samples minus [`Lifting::predict`]'s values, and with frames
+    /// their first coordinate is their length along [`frames::normals`].
+    #[test]
+    fn predict_and_normals_are_what_the_transform_uses() {
+        let mesh = crate::synthetic::bumpy_sphere(4);
+        let layout = mesh.layout();
+        let quantizer = crate::Quantizer::fit(mesh.positions(), 16).unwrap();
+        let samples = quantizer.quantize_all(mesh.positions());
+        let lifting = Lifting::new(layout, UpdateRule::None);
+        let mut world = samples.clone();
+        lifting.forward(&mut world);
+        for source in [2, frames::PARENTS_FROM, 4] {
+        let mut local = samples.clone();
+        lifting.with_parent_frames_from(Some(source)).forward(&mut local);
+        let mut checked = 0;
+        for level in 1..=layout.level() {
+            let mut predicted = samples.clone();
+            lifting.predict(level, &mut predicted);
+            let normals = frames::normals(layout, level, &samples, source);
+            let odd = layout.samples_at(level).len() - layout.samples_at(level - 1).len();
+            assert_eq!(normals.len(), odd, "level {level}");
+            for &(id, normal) in &normals {
+                let id = id as usize;
+                let detail: [i64; 3] =
+                    std::array::from_fn(|k| (samples[id][k] - predicted[id][k]) as i64);
+                assert_eq!(
+                    detail,
+                    world[id].map(i64::from),
+                    "level {level}, sample {id}"
+                );
+                let n = normal.map(|c| c as f64);
+                let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+                assert!(len > 0.0);
+                let along: f64 = (0..3).map(|k| detail[k] as f64 * n[k] / len).sum();
+                assert!(
+                    (local[id][0] as f64 - along).abs() <= 3.0,
+                    "level {level}, sample {id}: {} against {along}",
+                    local[id][0]
+                );
+                checked += 1;
+            }
+        }
+        assert_eq!(checked, layout.sample_count() - 8);
+        }
     }
 }

@@ -8,8 +8,9 @@
 //! Any other mesh is remeshed: [`clean::clean`] repairs it and splits it into
 //! components, and [`remesh()`] cuts each component open into a disk, maps it
 //! onto a square and resamples it as `K x K` base quads refined `L` times,
-//! with the cut's sides glued so the result has no seams ([`Remeshed`],
-//! [`RemeshOptions`]).
+//! with the cut's sides glued so the result has no seams, the samples
+//! placed where the codec's details come out normal where that is safe
+//! ([`Remeshed`], [`RemeshOptions`]).
 //!
 //! [`distance()`] measures how far two surfaces are apart (RMS, mean and
 //! Hausdorff distance and PSNR, as Metro does), to judge a remeshed or
@@ -30,6 +31,6 @@ pub use distance::{DistanceOptions, DistanceReport, OneSided, Side, distance};
 pub use error::{Error, Result};
 pub use qm_io::PolyMesh;
 pub use qm_lift::SemiRegularMesh;
-pub use remesh::{RemeshOptions, RemeshReport, Remeshed, remesh};
+pub use remesh::{NormalReport, RemeshOptions, RemeshReport, Remeshed, remesh};
 pub use subdivision::{Detected, detect_subdivision};
 pub use trimesh::{TriMesh, triangle_area};

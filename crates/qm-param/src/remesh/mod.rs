@@ -13,12 +13,17 @@
 //!    glue the sides of each cut so that seam mates are one sample;
 //! 5. fit the samples to the surface in the least-squares sense (module
 //!    `resample`), so that the quads straddle the surface rather than cut
-//!    under its bends.
+//!    under its bends;
+//! 6. with [`RemeshOptions::normal`] (the default), place the samples again,
+//!    coarse to fine, where that is safe, on the ray from the codec's
+//!    prediction along its frame normal, so that their details are normal
+//!    (module `normal`, a normal mesh), and fit them again along those rays.
 //!
 //! Holes stay holes: real boundaries are laid on the square's perimeter
 //! unglued, so no surface is added.
 
 mod cut;
+mod normal;
 mod resample;
 mod square;
 
@@ -59,12 +64,17 @@ pub struct RemeshOptions {
     /// Rounds of least-squares fitting of the samples to the surface (0:
     /// samples lie on the surface, interpolating it).
     pub fit_rounds: usize,
+    /// Place the samples again, coarse to fine, so that the codec's details
+    /// point along its frame normals where that is safe (a normal mesh;
+    /// module `normal`).
+    pub normal: bool,
 }
 
 impl RemeshOptions {
     /// Defaults: level for about 30 samples per input vertex but at most
     /// about a million samples, 7 stretch
-    /// iterations, up to 2 extra cuts per component, 3 fitting rounds.
+    /// iterations, up to 2 extra cuts per component, 3 fitting rounds,
+    /// normal placement.
     pub const DEFAULT: RemeshOptions = RemeshOptions {
         level: None,
         samples_per_vertex: 30.0,
@@ -72,6 +82,7 @@ impl RemeshOptions {
         stretch_iterations: 7,
         extra_cuts: 2,
         fit_rounds: 3,
+        normal: true,
     };
 
     /// Sets the level.
@@ -95,6 +106,12 @@ impl RemeshOptions {
     /// Sets the rounds of least-squares fitting.
     pub const fn with_fit_rounds(mut self, rounds: usize) -> Self {
         self.fit_rounds = rounds;
+        self
+    }
+
+    /// Sets whether the samples are placed for normal details.
+    pub const fn with_normal(mut self, normal: bool) -> Self {
+        self.normal = normal;
         self
     }
 
@@ -141,6 +158,19 @@ pub struct RemeshReport {
     pub components: Vec<ComponentReport>,
     /// The subdivision level chosen.
     pub level: u32,
+    /// With [`RemeshOptions::normal`]: how many samples were placed on
+    /// their normal ray.
+    pub normal: Option<NormalReport>,
+}
+
+/// What normal placement did ([`RemeshOptions::normal`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct NormalReport {
+    /// Samples moved onto the ray from their prediction along the normal.
+    pub moved: usize,
+    /// Samples left where the fit put them (no plausible hit of the
+    /// surface near them).
+    pub kept: usize,
 }
 
 /// Remeshes `mesh` into a semi-regular quad mesh.
@@ -257,13 +287,25 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     let base = BaseMesh::new(base_vertices, faces)
         .map_err(|e| Error::Remesh(format!("the glued base mesh is invalid: {e}")))?;
     let layout = Layout::new(base, level)?;
-    let (mesh, _) = SemiRegularMesh::from_face_grids(layout, &grids, &positions)?;
+    let (mut mesh, _) = SemiRegularMesh::from_face_grids(layout, &grids, &positions)?;
+    let mut normal_report = None;
+    if options.normal {
+        let surface = normal::Surface::new(&cleaned.components)?;
+        let (layout, mut positions) = mesh.into_parts();
+        let placed = normal::place(&layout, &mut positions, &surface, options.fit_rounds);
+        normal_report = Some(NormalReport {
+            moved: placed.moved,
+            kept: placed.kept,
+        });
+        mesh = SemiRegularMesh::new(layout, positions)?;
+    }
     Ok(Remeshed {
         mesh,
         report: RemeshReport {
             clean: cleaned.report,
             components: reports,
             level,
+            normal: normal_report,
         },
     })
 }
@@ -513,6 +555,67 @@ mod tests {
             fitted > interpolated + 2.0,
             "fitted {fitted:.2} dB, interpolated {interpolated:.2} dB"
         );
+    }
+
+    /// Of the details as the codec turns them (16 bits, no update, so that
+    /// only the placement counts): the share whose tangential components
+    /// are within rounding (at most 2 steps), and the sum of the
+    /// tangential components' magnitudes.
+    fn tangential(r: &Remeshed) -> (f64, f64) {
+        use qm_lift::{DEFAULT_BITS, Lifting, Quantizer, UpdateRule};
+        let layout = r.mesh.layout();
+        let quantizer = Quantizer::fit(r.mesh.positions(), DEFAULT_BITS).unwrap();
+        let mut data = quantizer.quantize_all(r.mesh.positions());
+        Lifting::new(layout, UpdateRule::None)
+            .with_frames(true)
+            .forward(&mut data);
+        let details = &data[layout.base().vertex_count() as usize..];
+        let small = details
+            .iter()
+            .filter(|d| d[1].abs().max(d[2].abs()) <= 2)
+            .count();
+        let sum = details
+            .iter()
+            .map(|d| d[1].abs() as f64 + d[2].abs() as f64)
+            .sum();
+        (small as f64 / details.len() as f64, sum)
+    }
+
+    /// On a smooth surface, normal placement makes nearly every detail
+    /// normal in the codec's frame, where the plain remesh leaves most with
+    /// a tangential part, at the same remesh error; without the fit, every
+    /// sample lies on the input surface.
+    #[test]
+    fn normal_placement_makes_the_details_normal() {
+        let input = sphere(48);
+        let samples = DistanceOptions::DEFAULT.with_samples(50_000);
+        let surface = normal::Surface::new(&clean(&input).unwrap().components).unwrap();
+        let psnr = |r: &Remeshed| distance(&input, &quads(r), &samples).unwrap().psnr_db;
+        for rounds in [0, 3] {
+            let options = RemeshOptions::DEFAULT.with_fit_rounds(rounds);
+            let plain = remesh(&input, &options.with_normal(false)).unwrap();
+            let placed = remesh(&input, &options.with_normal(true)).unwrap();
+            let report = placed.report.normal.unwrap();
+            assert!(report.moved > 10 * report.kept, "{report:?}");
+            let ((plain_small, plain_sum), (small, sum)) =
+                (tangential(&plain), tangential(&placed));
+            assert!(
+                plain_small < 0.3 && small > 0.9 && sum < 0.6 * plain_sum,
+                "fit rounds {rounds}: details with no tangential part {plain_small:.3} -> \
+                 {small:.3}, tangential sum {plain_sum:.3e} -> {sum:.3e}"
+            );
+            let (before, after) = (psnr(&plain), psnr(&placed));
+            assert!(
+                after > before - 0.2,
+                "fit rounds {rounds}: {before:.2} -> {after:.2} dB"
+            );
+            if rounds == 0 {
+                for &p in placed.mesh.positions() {
+                    let off = p.distance(surface.closest(p).0);
+                    assert!(off < 1e-12, "{p:?} is {off:e} off the surface");
+                }
+            }
+        }
     }
 
     #[test]

@@ -48,6 +48,10 @@ enum Command {
         /// 30 samples per input vertex, at most 32).
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=qm::lift::MAX_LEVEL as i64))]
         level: Option<u32>,
+        /// Place the remeshed samples so that their details are normal
+        /// (a normal mesh, see the README; default: on).
+        #[arg(long, value_name = "on|off", value_parser = on_off)]
+        normal_remesh: Option<bool>,
         /// Code the details in world axes, the three coordinates alike,
         /// instead of normal first in local frames (can suit dense noisy
         /// scans; see the README).
@@ -73,6 +77,10 @@ enum Command {
         /// most 32).
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=qm::lift::MAX_LEVEL as i64))]
         level: Option<u32>,
+        /// Place the remeshed samples so that their details are normal
+        /// (a normal mesh, see the README; default: on).
+        #[arg(long, value_name = "on|off", value_parser = on_off)]
+        normal_remesh: Option<bool>,
         /// No progress or summary output.
         #[arg(long)]
         quiet: bool,
@@ -153,6 +161,7 @@ fn main() -> ExitCode {
             passes,
             bytes,
             level,
+            normal_remesh,
             no_frames,
             frames_from,
             quiet,
@@ -169,14 +178,21 @@ fn main() -> ExitCode {
             if let Some(level) = frames_from {
                 options = options.with_frame_source(qm::Frames::ParentsFrom(level));
             }
-            compress(&input, output, &options, level, quiet)
+            compress(
+                &input,
+                output,
+                &options,
+                &remesh_options(level, normal_remesh),
+                quiet,
+            )
         }
         Command::Remesh {
             input,
             output,
             level,
+            normal_remesh,
             quiet,
-        } => remesh(&input, output, level, quiet),
+        } => remesh(&input, output, &remesh_options(level, normal_remesh), quiet),
         Command::Decompress {
             input,
             output,
@@ -216,11 +232,29 @@ fn main() -> ExitCode {
     }
 }
 
+/// `on` or `off`.
+fn on_off(value: &str) -> Result<bool, String> {
+    match value {
+        "on" => Ok(true),
+        "off" => Ok(false),
+        _ => Err("expected on or off".into()),
+    }
+}
+
+/// The remesher's defaults with the command line's level and normal
+/// placement.
+fn remesh_options(level: Option<u32>, normal: Option<bool>) -> qm::RemeshOptions {
+    let defaults = qm::RemeshOptions::DEFAULT;
+    defaults
+        .with_level(level)
+        .with_normal(normal.unwrap_or(defaults.normal))
+}
+
 fn compress(
     input: &Path,
     output: Option<PathBuf>,
     options: &qm::EncodeOptions,
-    level: Option<u32>,
+    remesh_options: &qm::RemeshOptions,
     quiet: bool,
 ) -> Result<(), Failure> {
     let output = output.unwrap_or_else(|| default_output(input, "qm"));
@@ -229,8 +263,7 @@ fn compress(
     progress.step("reading mesh");
     let mesh = qm::read_mesh(input).map_err(|e| Failure::about(input, e))?;
     progress.step("making the mesh semi-regular (subdivision connectivity or remeshing)");
-    let remesh_options = qm::RemeshOptions::DEFAULT.with_level(level);
-    let prepared = qm::prepare(&mesh, &remesh_options).map_err(|e| Failure::about(input, e))?;
+    let prepared = qm::prepare(&mesh, remesh_options).map_err(|e| Failure::about(input, e))?;
     progress.suspend(|| {
         if let (false, Some(r)) = (quiet, &prepared.remeshed) {
             report_remesh(input, r);
@@ -264,7 +297,7 @@ fn compress(
 fn remesh(
     input: &Path,
     output: Option<PathBuf>,
-    level: Option<u32>,
+    options: &qm::RemeshOptions,
     quiet: bool,
 ) -> Result<(), Failure> {
     let output = output.unwrap_or_else(|| {
@@ -278,8 +311,7 @@ fn remesh(
     progress.step("reading mesh");
     let mesh = qm::read_mesh(input).map_err(|e| Failure::about(input, e))?;
     progress.step("cleaning, cutting, parameterizing and resampling");
-    let remeshed = qm::remesh(&mesh, &qm::RemeshOptions::DEFAULT.with_level(level))
-        .map_err(|e| Failure::about(input, e))?;
+    let remeshed = qm::remesh(&mesh, options).map_err(|e| Failure::about(input, e))?;
     let layout = remeshed.mesh.layout();
     let quads = layout.quads(layout.level());
     let out = qm::PolyMesh::from_faces(remeshed.mesh.positions().to_vec(), &quads);
@@ -305,6 +337,12 @@ fn report_remesh(input: &Path, r: &qm::RemeshReport) {
         eprintln!(
             "  component {i}: {} vertices -> {} base quads x level {}, {} extra cuts, stretch {:.3}, {} flipped",
             c.vertices, c.base_quads, r.level, c.extra_cuts, c.stretch, c.flipped
+        );
+    }
+    if let Some(n) = r.normal {
+        eprintln!(
+            "  normal placement: {} samples moved onto their normal ray, {} kept their detail",
+            n.moved, n.kept
         );
     }
 }
