@@ -580,37 +580,39 @@ mod tests {
         let mut world = samples.clone();
         lifting.forward(&mut world);
         for source in [2, frames::PARENTS_FROM, 4] {
-        let mut local = samples.clone();
-        lifting.with_parent_frames_from(Some(source)).forward(&mut local);
-        let mut checked = 0;
-        for level in 1..=layout.level() {
-            let mut predicted = samples.clone();
-            lifting.predict(level, &mut predicted);
-            let normals = frames::normals(layout, level, &samples, source);
-            let odd = layout.samples_at(level).len() - layout.samples_at(level - 1).len();
-            assert_eq!(normals.len(), odd, "level {level}");
-            for &(id, normal) in &normals {
-                let id = id as usize;
-                let detail: [i64; 3] =
-                    std::array::from_fn(|k| (samples[id][k] - predicted[id][k]) as i64);
-                assert_eq!(
-                    detail,
-                    world[id].map(i64::from),
-                    "level {level}, sample {id}"
-                );
-                let n = normal.map(|c| c as f64);
-                let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-                assert!(len > 0.0);
-                let along: f64 = (0..3).map(|k| detail[k] as f64 * n[k] / len).sum();
-                assert!(
-                    (local[id][0] as f64 - along).abs() <= 3.0,
-                    "level {level}, sample {id}: {} against {along}",
-                    local[id][0]
-                );
-                checked += 1;
+            let mut local = samples.clone();
+            lifting
+                .with_parent_frames_from(Some(source))
+                .forward(&mut local);
+            let mut checked = 0;
+            for level in 1..=layout.level() {
+                let mut predicted = samples.clone();
+                lifting.predict(level, &mut predicted);
+                let normals = frames::normals(layout, level, &samples, source);
+                let odd = layout.samples_at(level).len() - layout.samples_at(level - 1).len();
+                assert_eq!(normals.len(), odd, "level {level}");
+                for &(id, normal) in &normals {
+                    let id = id as usize;
+                    let detail: [i64; 3] =
+                        std::array::from_fn(|k| (samples[id][k] - predicted[id][k]) as i64);
+                    assert_eq!(
+                        detail,
+                        world[id].map(i64::from),
+                        "level {level}, sample {id}"
+                    );
+                    let n = normal.map(|c| c as f64);
+                    let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+                    assert!(len > 0.0);
+                    let along: f64 = (0..3).map(|k| detail[k] as f64 * n[k] / len).sum();
+                    assert!(
+                        (local[id][0] as f64 - along).abs() <= 3.0,
+                        "level {level}, sample {id}: {} against {along}",
+                        local[id][0]
+                    );
+                    checked += 1;
+                }
             }
-        }
-        assert_eq!(checked, layout.sample_count() - 8);
+            assert_eq!(checked, layout.sample_count() - 8);
         }
     }
 }

@@ -26,6 +26,7 @@ mod cut;
 mod normal;
 mod resample;
 mod square;
+mod surface;
 
 use qm_lift::glam::DVec3;
 use qm_lift::{BaseMesh, Layout, SemiRegularMesh};
@@ -290,7 +291,7 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     let (mut mesh, _) = SemiRegularMesh::from_face_grids(layout, &grids, &positions)?;
     let mut normal_report = None;
     if options.normal {
-        let surface = normal::Surface::new(&cleaned.components)?;
+        let surface = surface::Surface::new(&cleaned.components)?;
         let (layout, mut positions) = mesh.into_parts();
         let placed = normal::place(&layout, &mut positions, &surface, options.fit_rounds);
         normal_report = Some(NormalReport {
@@ -589,7 +590,7 @@ mod tests {
     fn normal_placement_makes_the_details_normal() {
         let input = sphere(48);
         let samples = DistanceOptions::DEFAULT.with_samples(50_000);
-        let surface = normal::Surface::new(&clean(&input).unwrap().components).unwrap();
+        let surface = surface::Surface::new(&clean(&input).unwrap().components).unwrap();
         let psnr = |r: &Remeshed| distance(&input, &quads(r), &samples).unwrap().psnr_db;
         for rounds in [0, 3] {
             let options = RemeshOptions::DEFAULT.with_fit_rounds(rounds);
@@ -611,7 +612,7 @@ mod tests {
             );
             if rounds == 0 {
                 for &p in placed.mesh.positions() {
-                    let off = p.distance(surface.closest(p).0);
+                    let off = p.distance(surface.closest(p).point);
                     assert!(off < 1e-12, "{p:?} is {off:e} off the surface");
                 }
             }

@@ -55,14 +55,11 @@
 //! nearly, not exactly, normal. Samples are shared between faces, so seams
 //! stay closed.
 
-use parry3d_f64::math::Vector;
-use parry3d_f64::query::{PointQueryWithLocation, Ray, RayCast};
-use parry3d_f64::shape::TriMesh as ParryMesh;
 use qm_lift::glam::DVec3;
 use qm_lift::{Coord, Layout, Lifting, MAX_BITS, Quantizer, UpdateRule, frames};
 use rayon::prelude::*;
 
-use crate::{Error, Result, TriMesh};
+use super::surface::Surface;
 
 /// Longest detail, in local spacings, whose sample is moved onto its ray.
 const RESOLVED: f64 = 0.25;
@@ -76,84 +73,6 @@ const DRIFT: f64 = 0.5;
 
 /// Least cosine between the hit triangle's normal and the frame normal.
 const FACING: f64 = 0.9;
-
-/// The input surface, ready for rays and closest points.
-pub(super) struct Surface {
-    mesh: ParryMesh,
-    /// Unit normal of each triangle of `mesh` (zero if degenerate).
-    normals: Vec<DVec3>,
-    /// Subtracted from every position (parry works near the origin).
-    origin: DVec3,
-}
-
-impl Surface {
-    /// The surface of the cleaned components.
-    pub(super) fn new(components: &[TriMesh]) -> Result<Surface> {
-        let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-        for p in components.iter().flat_map(|c| &c.positions) {
-            lo = lo.min(*p);
-            hi = hi.max(*p);
-        }
-        let origin = 0.5 * (lo + hi);
-        let mut vertices = Vec::new();
-        let mut indices = Vec::new();
-        let mut normals = Vec::new();
-        for c in components {
-            let first = vertices.len() as u32;
-            vertices.extend(c.positions.iter().map(|&p| to_parry(p - origin)));
-            for t in &c.triangles {
-                let [a, b, d] = t.map(|v| c.positions[v as usize]);
-                normals.push((b - a).cross(d - a).normalize_or_zero());
-                indices.push(t.map(|v| v + first));
-            }
-        }
-        let mesh = ParryMesh::new(vertices, indices)
-            .map_err(|e| Error::Remesh(format!("the surface for normal placement: {e:?}")))?;
-        Ok(Surface {
-            mesh,
-            normals,
-            origin,
-        })
-    }
-
-    /// The closest point of the surface to `p` and its triangle's normal.
-    pub(super) fn closest(&self, p: DVec3) -> (DVec3, DVec3) {
-        let (projection, (triangle, _)) = self
-            .mesh
-            .project_local_point_and_get_location(to_parry(p - self.origin), false);
-        (
-            from_parry(projection.point) + self.origin,
-            self.normals[triangle as usize],
-        )
-    }
-
-    /// Signed distance of `p` to the surface, positive on the side its
-    /// closest triangle faces.
-    pub(super) fn signed_distance(&self, p: DVec3) -> f64 {
-        let (q, normal) = self.closest(p);
-        (p - q).dot(normal)
-    }
-
-    /// The nearest hit of the line `from + t dir`, `|t| <= reach`, whose
-    /// triangle faces `dir` (cosine at least [`FACING`]): `(t, triangle
-    /// normal)`. Only the first hit each way is looked at.
-    fn hit(&self, from: DVec3, dir: DVec3, reach: f64) -> Option<(f64, DVec3)> {
-        let origin = to_parry(from - self.origin);
-        let mut best: Option<(f64, DVec3)> = None;
-        for sign in [1.0, -1.0] {
-            let ray = Ray::new(origin, to_parry(dir * sign));
-            let limit = best.map_or(reach, |b| b.0.abs());
-            let Some(hit) = self.mesh.cast_local_ray_and_get_normal(&ray, limit, false) else {
-                continue;
-            };
-            let normal = self.normals[hit.subshape as usize];
-            if normal.dot(dir) >= FACING {
-                best = Some((sign * hit.time_of_impact, normal));
-            }
-        }
-        best
-    }
-}
 
 /// What [`place`] did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -181,16 +100,22 @@ pub(super) fn place(
     };
     let original = positions.to_vec();
     let original_grid = quantizer.quantize_all(&original);
-    // Where the fit put each sample, relative to the surface.
-    let offsets: Vec<f64> = original
+    // Where the fit put each sample, relative to the surface (signed
+    // distance, positive on the side the closest triangle faces), and that
+    // triangle: the walks of the queries below start there.
+    let (offsets, mut triangles): (Vec<f64>, Vec<u32>) = original
         .par_iter()
-        .map(|&p| surface.signed_distance(p))
-        .collect();
+        .map(|&p| {
+            let foot = surface.closest(p);
+            let offset = (p - foot.point).dot(surface.normal(foot.triangle));
+            (offset, foot.triangle)
+        })
+        .unzip();
     // The direction each sample is fitted along: its ray; the base vertices,
     // which have no ray, along the surface normal.
     let mut directions = vec![DVec3::ZERO; positions.len()];
     for v in 0..layout.base().vertex_count() as usize {
-        directions[v] = surface.closest(positions[v]).1;
+        directions[v] = surface.normal(triangles[v]);
     }
     let lifting = Lifting::new(layout, UpdateRule::None);
     let mut spacing = vec![0.0; positions.len()];
@@ -203,7 +128,7 @@ pub(super) fn place(
         let before = predict(&mut original_grid.clone());
         let normals = frames::normals(layout, level, &now, frames::PARENTS_FROM);
         spacings(layout, level, positions, &mut spacing);
-        let moves: Vec<(bool, DVec3, DVec3)> = normals
+        let moves: Vec<(bool, DVec3, DVec3, u32)> = normals
             .par_iter()
             .map(|&(id, normal)| {
                 let id = id as usize;
@@ -215,30 +140,39 @@ pub(super) fn place(
                 let r = p + (original[id] - at(&before));
                 let n = DVec3::from(normal.map(|c| c as f64)).normalize_or_zero();
                 let keep = || {
-                    let (q, face) = surface.closest(r);
-                    let y = r - ((r - q).dot(face) - offsets[id]) * face;
-                    (false, y, if n == DVec3::ZERO { face } else { n })
+                    let foot = surface.closest(r);
+                    let face = surface.normal(foot.triangle);
+                    let y = r - ((r - foot.point).dot(face) - offsets[id]) * face;
+                    (
+                        false,
+                        y,
+                        if n == DVec3::ZERO { face } else { n },
+                        foot.triangle,
+                    )
                 };
                 let h = spacing[id];
                 let detail = (r - p).length();
                 if n == DVec3::ZERO || detail > RESOLVED * h {
                     return keep();
                 }
-                let Some((t, face)) = surface.hit(p, n, REACH * detail + 0.25 * h) else {
+                let reach = REACH * detail + 0.25 * h;
+                let Some((t, hit)) = surface.hit(p, n, reach, FACING) else {
                     return keep();
                 };
+                let face = surface.normal(hit);
                 // The fit's offset, along the ray.
                 let along = offsets[id] / face.dot(n);
                 let y = p + (t + along) * n;
                 if y.distance(r) > DRIFT * h {
                     return keep();
                 }
-                (true, y, n)
+                (true, y, n, hit)
             })
             .collect();
-        for (&(id, _), (moved, y, n)) in normals.iter().zip(moves) {
+        for (&(id, _), (moved, y, n, t)) in normals.iter().zip(moves) {
             positions[id as usize] = y;
             directions[id as usize] = n;
+            triangles[id as usize] = t;
             if moved {
                 placed.moved += 1;
             } else {
@@ -246,7 +180,14 @@ pub(super) fn place(
             }
         }
     }
-    refit(layout, positions, &directions, surface, fit_rounds);
+    refit(
+        layout,
+        positions,
+        &directions,
+        &triangles,
+        surface,
+        fit_rounds,
+    );
     placed
 }
 
@@ -308,11 +249,14 @@ fn spacings(layout: &Layout, level: u32, positions: &[DVec3], spacing: &mut [f64
 /// surface points: the residuals are measured at the corners, edge
 /// midpoints and centres of the quads (each base face's `(2n + 1)^2`
 /// points, its border counted half since the face beside it counts it too)
-/// and `rounds` Jacobi steps with the lumped mass move the samples.
+/// and `rounds` Jacobi steps with the lumped mass move the samples. The
+/// closest point of each node is walked to from `triangles` (the triangle
+/// each sample was placed on) of its first corner.
 fn refit(
     layout: &Layout,
     positions: &mut [DVec3],
     directions: &[DVec3],
+    triangles: &[u32],
     surface: &Surface,
     rounds: usize,
 ) {
@@ -330,13 +274,18 @@ fn refit(
     };
     let mut num = vec![0.0; positions.len()];
     let mut den = vec![0.0; positions.len()];
+    // Per face and node, the triangle of its closest point in the last round.
+    let mut found = vec![Vec::new(); layout.face_count()];
     for _ in 0..rounds {
         // Per face, the sums of its grid points.
-        let sums: Vec<Vec<(f64, f64)>> = (0..layout.face_count())
-            .into_par_iter()
-            .map(|f| {
+        let sums: Vec<Vec<(f64, f64)>> = found
+            .par_iter_mut()
+            .enumerate()
+            .map(|(f, found): (usize, &mut Vec<u32>)| {
                 let grid = layout.face_grid(f);
+                let first = found.is_empty();
                 let mut local = vec![(0.0, 0.0); side * side];
+                let mut node = 0;
                 for fj in 0..=2 * n {
                     let (ys, wy, qy) = axis(fj);
                     for fi in 0..=2 * n {
@@ -349,7 +298,44 @@ fn refit(
                             *corner = (g, w);
                             point += positions[grid[g] as usize] * w;
                         }
-                        let residual = surface.closest(point).0 - point;
+                        // The samples move little between rounds, so the
+                        // walk from the last round's triangle stays on the
+                        // right sheet. The first round walks from the first
+                        // corner's triangle; where that ends on a triangle
+                        // not touching every corner's (the quad spans a gap
+                        // or a crease), it walks from each corner's and
+                        // keeps the closest.
+                        let foot = if first {
+                            let start = |c: &(usize, f64)| triangles[grid[c.0] as usize];
+                            let foot = surface.closest_near(point, start(&corners[0]));
+                            if corners
+                                .iter()
+                                .filter(|c| c.1 > 0.0)
+                                .all(|c| surface.touching(foot.triangle, start(c)))
+                            {
+                                foot
+                            } else {
+                                corners
+                                    .iter()
+                                    .filter(|c| c.1 > 0.0)
+                                    .map(|c| surface.closest_near(point, start(c)))
+                                    .min_by(|a, b| {
+                                        a.point
+                                            .distance_squared(point)
+                                            .total_cmp(&b.point.distance_squared(point))
+                                    })
+                                    .expect("a node has a corner of positive weight")
+                            }
+                        } else {
+                            surface.closest_near(point, found[node])
+                        };
+                        if first {
+                            found.push(foot.triangle);
+                        } else {
+                            found[node] = foot.triangle;
+                        }
+                        node += 1;
+                        let residual = foot.point - point;
                         for (g, w) in corners {
                             if w > 0.0 {
                                 let d = directions[grid[g] as usize];
@@ -381,12 +367,4 @@ fn refit(
             }
         }
     }
-}
-
-fn to_parry(p: DVec3) -> Vector {
-    Vector::new(p.x, p.y, p.z)
-}
-
-fn from_parry(p: Vector) -> DVec3 {
-    DVec3::new(p.x, p.y, p.z)
 }
