@@ -11,7 +11,7 @@
 //!   mesh (default: the bundled meshes in `assets/`), measured as surface
 //!   distance to the input; writes `rd.csv`, `table1.md`, `summary.md`,
 //!   `rd.svg` and `rd.png` (default into `target/rd/`). See [`rd`].
-//! - `remesh-bench [--level L] [MESH ...]`: remesh time and peak memory per mesh, each in
+//! - `remesh-bench [--level L] [--normal-remesh on|off] [MESH ...]`: remesh time and peak memory per mesh, each in
 //!   a process of its own (default: the bunny and a generated 500k-vertex
 //!   torus). See [`remesh_bench`].
 //! - `ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC]`: two encoder (and
@@ -44,7 +44,7 @@ fn main() -> ExitCode {
         Some("details") => details::run(&args[1..]),
         _ => Err("usage: cargo xtask pass-table [MESH ...]\n       \
                   cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]\n       \
-                  cargo xtask remesh-bench [--level L] [MESH ...]\n       \
+                  cargo xtask remesh-bench [--level L] [--normal-remesh on|off] [MESH ...]\n       \
                   cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--out FILE]\n       \
                   cargo xtask details [FILE|DIR ...]"
             .to_string()),

@@ -1,7 +1,8 @@
-//! `cargo xtask remesh-bench [--level L] [MESH ...]`: remesh time and peak
-//! memory.
+//! `cargo xtask remesh-bench [--level L] [--normal-remesh on|off] [MESH ...]`:
+//! remesh time and peak memory.
 //!
-//! Each mesh is remeshed (with the defaults, or at level `L`) in a child
+//! Each mesh is remeshed (with the defaults, or at level `L`, or without
+//! the normal placement of the samples) in a child
 //! process of its own, so that its peak resident memory (`VmHWM` of
 //! `/proc/self/status`) is its own; the child reports read and remesh
 //! times. A mesh is a file or `generated-torus-<N>k`, a bumpy torus of `N`
@@ -32,10 +33,19 @@ pub fn run(args: &[String]) -> Result<(), String> {
         );
         args.drain(at..at + 2);
     }
+    let mut normal = qm::RemeshOptions::DEFAULT.normal;
+    if let Some(at) = args.iter().position(|a| a == "--normal-remesh") {
+        normal = match args.get(at + 1).map(String::as_str) {
+            Some("on") => true,
+            Some("off") => false,
+            _ => return Err("--normal-remesh needs on or off".into()),
+        };
+        args.drain(at..at + 2);
+    }
     if let [flag, mesh] = &args[..]
         && flag == "--child"
     {
-        return child(mesh, level);
+        return child(mesh, level, normal);
     }
     let meshes: Vec<String> = if args.is_empty() {
         let bunny = super::workspace().join("../shared/models/stanford-bunny.obj");
@@ -57,6 +67,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
         if let Some(level) = level {
             command.args(["--level", &level.to_string()]);
         }
+        command.args(["--normal-remesh", if normal { "on" } else { "off" }]);
         let out = command.output().map_err(|e| format!("{mesh}: {e}"))?;
         if !out.status.success() {
             return Err(format!(
@@ -70,7 +81,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
 }
 
 /// Runs in the child: one mesh, one table row.
-fn child(mesh: &str, level: Option<u32>) -> Result<(), String> {
+fn child(mesh: &str, level: Option<u32>, normal: bool) -> Result<(), String> {
     let start = Instant::now();
     let torus = mesh
         .strip_prefix(TORUS)
@@ -86,7 +97,9 @@ fn child(mesh: &str, level: Option<u32>) -> Result<(), String> {
     };
     let read_s = start.elapsed().as_secs_f64();
     let start = Instant::now();
-    let options = qm::RemeshOptions::DEFAULT.with_level(level);
+    let options = qm::RemeshOptions::DEFAULT
+        .with_level(level)
+        .with_normal(normal);
     let remeshed = qm::remesh(&input, &options).map_err(|e| e.to_string())?;
     let remesh_s = start.elapsed().as_secs_f64();
     let name = PathBuf::from(mesh)

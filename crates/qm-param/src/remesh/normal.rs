@@ -34,6 +34,15 @@
 //! so that the details stay normal: the fit of the parameterized samples no
 //! longer applies once they have slid.
 //!
+//! The fit asks for the closest surface point of four quadrature nodes per
+//! sample in every round. The hierarchy answered those in 60% of the
+//! bunny's placement time; they are now walked to over the mesh from the
+//! triangles of the node's corners (module `surface`), with the same remesh
+//! PSNR to 0.003 dB on the bunny and cheburashka. The samples' own closest
+//! points and the rays still ask the hierarchy: a walk from a neighbouring
+//! sample can stop on the wrong sheet of a concave junction (cheburashka's
+//! ears against its head fell to 56.6 dB that way).
+//!
 //! What the bounds are for, measured with `cargo xtask details` (remesh
 //! PSNR, lossless bytes at the default encoder): with every ray hit
 //! accepted (within twice the detail's length), spot fell from 86.3 to
@@ -46,8 +55,7 @@
 //! of keeping them cost spot 0.5 to 2.9 dB and fandisk 3.5 to 10 dB of
 //! remesh PSNR, for at most 4% fewer bytes. Measuring the spacing by the
 //! quads' mean side instead of their shortest cost fandisk 3.5 dB (with
-//! a facing cosine of 0.2). The
-//! README has the rates and distortions.
+//! a facing cosine of 0.2). The README has the rates and distortions.
 //!
 //! The predictions use integer coordinates on a 24-bit grid (a step of
 //! `2^-24` of the box, far below any remesh error) and no update step: the
