@@ -11,15 +11,18 @@
 //!   mesh (default: the bundled meshes in `assets/`), measured as surface
 //!   distance to the input; writes `rd.csv`, `table1.md`, `summary.md`,
 //!   `rd.svg` and `rd.png` (default into `target/rd/`). See [`rd`].
-//! - `remesh-bench [--level L] [--normal-remesh on|off] [MESH ...]`: remesh time and peak memory per mesh, each in
-//!   a process of its own (default: the bunny and a generated 500k-vertex
-//!   torus). See [`remesh_bench`].
+//! - `remesh-bench [--level L] [--normal-remesh on|off] [MESH ...]`: remesh
+//!   time and peak memory per mesh, each in a process of its own (default:
+//!   the bunny and a generated 500k-vertex torus). See [`remesh_bench`].
 //! - `ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC]`: two encoder (and
 //!   remesher) settings compared at equal bytes on the same models. See
 //!   [`ab`].
 //! - `details [FILE|DIR ...]`: remesh PSNR, lossless size and the tangential
 //!   share of the codec's details, with and without the remesher's normal
 //!   placement. See [`details`].
+//! - `budget [--models FILE|DIR ...] [--db DB ...]`: bits by symbol class
+//!   at the passes closest to each PSNR (default 65 and 78 dB). See
+//!   [`budget`].
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -27,6 +30,7 @@ use std::process::ExitCode;
 use qm::{DecodeOptions, EncodeOptions};
 
 mod ab;
+mod budget;
 mod details;
 mod plot;
 mod rd;
@@ -42,11 +46,13 @@ fn main() -> ExitCode {
         Some("remesh-bench") => remesh_bench::run(&args[1..]),
         Some("ab") => ab::run(&args[1..]),
         Some("details") => details::run(&args[1..]),
+        Some("budget") => budget::run(&args[1..]),
         _ => Err("usage: cargo xtask pass-table [MESH ...]\n       \
                   cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]\n       \
                   cargo xtask remesh-bench [--level L] [--normal-remesh on|off] [MESH ...]\n       \
                   cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--out FILE]\n       \
-                  cargo xtask details [FILE|DIR ...]"
+                  cargo xtask details [FILE|DIR ...]\n       \
+                  cargo xtask budget [--models FILE|DIR ...] [--db DB ...]"
             .to_string()),
     };
     match result {

@@ -131,6 +131,39 @@ pub fn encode(
     weighting: Weighting,
     max_passes: Option<u32>,
 ) -> Encoded {
+    let (params, below) = plan(tree, coefs, weighting, max_passes);
+    let passes = params.passes;
+    let mut oracle = Truth {
+        coefs,
+        below: &below,
+    };
+    let mut writer = BitWriter::new();
+    let mut state = State::new(tree, params);
+    let mut pass_ends = Vec::with_capacity(passes as usize);
+    for pass in 0..passes {
+        let coded = state.pass(tree, pass, &mut writer, &mut oracle);
+        debug_assert!(coded.is_ok());
+        pass_ends.push(writer.len_needed());
+    }
+    let bytes = writer.finish();
+    for end in &mut pass_ends {
+        *end = (*end).min(bytes.len());
+    }
+    Encoded {
+        bytes,
+        params,
+        pass_ends,
+    }
+}
+
+/// The stream parameters of `coefs` and the highest weighted plane below
+/// each node.
+fn plan(
+    tree: &ZeroTree,
+    coefs: &[Coef],
+    weighting: Weighting,
+    max_passes: Option<u32>,
+) -> (StreamParams, Vec<i32>) {
     assert_eq!(coefs.len(), tree.len(), "one coefficient per tree node");
     let big_l = tree.max_level();
     let levels = tree.levels();
@@ -163,27 +196,7 @@ pub fn encode(
         passes,
         weighting,
     };
-    let mut oracle = Truth {
-        coefs,
-        below: &below,
-    };
-    let mut writer = BitWriter::new();
-    let mut state = State::new(tree, params);
-    let mut pass_ends = Vec::with_capacity(passes as usize);
-    for pass in 0..passes {
-        let coded = state.pass(tree, pass, &mut writer, &mut oracle);
-        debug_assert!(coded.is_ok());
-        pass_ends.push(writer.len_needed());
-    }
-    let bytes = writer.finish();
-    for end in &mut pass_ends {
-        *end = (*end).min(bytes.len());
-    }
-    Encoded {
-        bytes,
-        params,
-        pass_ends,
-    }
+    (params, below)
 }
 
 /// Decodes up to `max_passes` passes from `data`, which may be cut anywhere.
@@ -310,14 +323,15 @@ fn run_decoder(
     (decoded, saved)
 }
 
-/// Encoder or decoder, seen from the scan.
+/// Encoder or decoder, seen from the scan. `sym` says what the bit is (a
+/// [`BitBudget`] slot); only the measuring coder looks at it.
 trait Coder {
-    fn code(&mut self, ctx: &mut Context, bit: bool) -> Result<bool, Truncated>;
+    fn code(&mut self, ctx: &mut Context, bit: bool, sym: Sym) -> Result<bool, Truncated>;
 }
 
 impl Coder for BitWriter {
     #[inline]
-    fn code(&mut self, ctx: &mut Context, bit: bool) -> Result<bool, Truncated> {
+    fn code(&mut self, ctx: &mut Context, bit: bool, _: Sym) -> Result<bool, Truncated> {
         self.encode(ctx, bit);
         Ok(bit)
     }
@@ -325,9 +339,95 @@ impl Coder for BitWriter {
 
 impl Coder for BitReader<'_> {
     #[inline]
-    fn code(&mut self, ctx: &mut Context, _: bool) -> Result<bool, Truncated> {
+    fn code(&mut self, ctx: &mut Context, _: bool, _: Sym) -> Result<bool, Truncated> {
         self.decode(ctx)
     }
+}
+
+/// What a coded bit is: its [`BitBudget`] slot.
+#[derive(Clone, Copy)]
+enum Sym {
+    Significance(usize, usize),
+    Sign(usize),
+    Zerotree(usize),
+    Refinement(usize, usize),
+}
+
+/// Symbols coded and their cost under the adaptive models at coding time.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Cost {
+    /// Binary symbols coded.
+    pub symbols: u64,
+    /// Sum of `-log2 p` of the coded symbols.
+    pub bits: f64,
+}
+
+impl Cost {
+    fn add(&mut self, bits: f64) {
+        self.symbols += 1;
+        self.bits += bits;
+    }
+}
+
+/// Where the bits of a stream go, by symbol class. Level classes: 0 is the
+/// finest level, 1 and 2 the next coarser, 3 all coarser ones.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BitBudget {
+    /// Significance bits by level class and coordinate.
+    pub significance: [[Cost; 3]; LEVEL_CLASSES],
+    /// Sign bits by coordinate.
+    pub sign: [Cost; 3],
+    /// Zerotree (subtree significance) bits by level class.
+    pub zerotree: [Cost; LEVEL_CLASSES],
+    /// Refinement bits by level class and coordinate.
+    pub refinement: [[Cost; 3]; LEVEL_CLASSES],
+}
+
+/// An encoder that also adds up the cost of every symbol.
+struct Tally {
+    writer: BitWriter,
+    budget: BitBudget,
+}
+
+impl Coder for Tally {
+    fn code(&mut self, ctx: &mut Context, bit: bool, sym: Sym) -> Result<bool, Truncated> {
+        let cost = ctx.cost(bit);
+        let b = &mut self.budget;
+        match sym {
+            Sym::Significance(class, c) => b.significance[class][c].add(cost),
+            Sym::Sign(c) => b.sign[c].add(cost),
+            Sym::Zerotree(class) => b.zerotree[class].add(cost),
+            Sym::Refinement(class, c) => b.refinement[class][c].add(cost),
+        }
+        self.writer.code(ctx, bit, sym)
+    }
+}
+
+/// Encodes like [`encode`] and returns the bit budget after each pass (the
+/// bits to code the first `k + 1` passes at index `k`).
+pub fn bit_budget(
+    tree: &ZeroTree,
+    coefs: &[Coef],
+    weighting: Weighting,
+    max_passes: Option<u32>,
+) -> Vec<BitBudget> {
+    let (params, below) = plan(tree, coefs, weighting, max_passes);
+    let mut oracle = Truth {
+        coefs,
+        below: &below,
+    };
+    let mut tally = Tally {
+        writer: BitWriter::new(),
+        budget: BitBudget::default(),
+    };
+    let mut state = State::new(tree, params);
+    (0..params.passes)
+        .map(|pass| {
+            let coded = state.pass(tree, pass, &mut tally, &mut oracle);
+            debug_assert!(coded.is_ok());
+            tally.budget.clone()
+        })
+        .collect()
 }
 
 /// The true data behind the bits: the encoder has it, the decoder does not.
@@ -371,7 +471,8 @@ impl Oracle for Unknown {
     }
 }
 
-const LEVEL_CLASSES: usize = 4;
+/// Level classes of the contexts and of [`BitBudget`].
+pub const LEVEL_CLASSES: usize = 4;
 
 /// Coarse level class: 0 = finest level, 1, 2, 3 = three or more above it.
 #[inline]
@@ -528,7 +629,11 @@ impl State {
                             * 3
                             + siblings;
                         let truth = oracle.magnitude(k, c) >> b != 0;
-                        match coder.code(&mut self.models.significance[ctx], truth) {
+                        match coder.code(
+                            &mut self.models.significance[ctx],
+                            truth,
+                            Sym::Significance(class, c),
+                        ) {
                             Ok(true) => {}
                             Ok(false) => continue,
                             Err(e) => {
@@ -543,9 +648,11 @@ impl State {
                                 p if self.neg[p as usize] & (1 << c) != 0 => 2,
                                 _ => 1,
                             };
-                        let negative = match coder
-                            .code(&mut self.models.sign[sign_ctx], oracle.negative(k, c))
-                        {
+                        let negative = match coder.code(
+                            &mut self.models.sign[sign_ctx],
+                            oracle.negative(k, c),
+                            Sym::Sign(c),
+                        ) {
                             Ok(n) => n,
                             Err(e) => {
                                 result = Err(e);
@@ -571,7 +678,11 @@ impl State {
                 if !self.open[k] {
                     let ctx =
                         (kind * LEVEL_CLASSES + class) * 4 + self.sig[k].count_ones() as usize;
-                    match coder.code(&mut self.models.zerotree[ctx], oracle.below(k) >= plane) {
+                    match coder.code(
+                        &mut self.models.zerotree[ctx],
+                        oracle.below(k) >= plane,
+                        Sym::Zerotree(class),
+                    ) {
                         Ok(true) => self.open[k] = true,
                         Ok(false) => continue,
                         Err(e) => {
@@ -603,6 +714,7 @@ impl State {
             // Every coordinate of this level is exact.
             return Ok(());
         }
+        let class = level_class(level, self.max_level);
         let models = &mut self.models.refine;
         for e in &mut self.refine_lists[level as usize - 1][..count] {
             let (k, c) = (e.node as usize, e.coord as usize);
@@ -612,7 +724,7 @@ impl State {
             }
             let first = (e.low as i32 == b + 1) as usize;
             let truth = (oracle.magnitude(k, c) >> b) & 1 != 0;
-            if coder.code(&mut models[c * 2 + first], truth)? {
+            if coder.code(&mut models[c * 2 + first], truth, Sym::Refinement(class, c))? {
                 e.mag |= 1 << b;
             }
             e.low = b as u8;

@@ -12,7 +12,8 @@ mod ezw;
 mod range;
 
 pub use ezw::{
-    Checkpoint, Coef, Decoded, Encoded, StreamParams, Weighting, decode, decode_resuming, encode,
+    BitBudget, Checkpoint, Coef, Cost, Decoded, Encoded, LEVEL_CLASSES, StreamParams, Weighting,
+    bit_budget, decode, decode_resuming, encode,
 };
 pub use qm_tree::{self, ZeroTree};
 pub use range::{BitReader, BitWriter, Context, ReaderSnapshot, Truncated};

@@ -41,6 +41,13 @@ impl Context {
         (range >> PROB_BITS) * self.p0 as u32
     }
 
+    /// What coding `bit` with this model costs now, in bits (for
+    /// measurements; coding does not need it).
+    pub fn cost(&self, bit: bool) -> f64 {
+        let p0 = self.p0 as f64 / ONE as f64;
+        -(if bit { 1.0 - p0 } else { p0 }).log2()
+    }
+
     #[inline]
     fn update(&mut self, bit: bool) {
         // Adaptation rate 1/2^shift: 1/4 for the first symbols, down to 1/64.
