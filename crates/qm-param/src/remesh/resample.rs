@@ -222,6 +222,19 @@ fn rasterize(disk: &Disk, uv: &[DVec2], n: usize) -> (Vec<DVec3>, usize) {
     (positions, uncovered)
 }
 
+/// The quadrature of the fits along one axis of an `(n + 1)^2` grid, at
+/// fine index `f` of its `(2n + 1)^2` refinement: the grid points the node
+/// lies between, their hat-function values (one point when it lies on a
+/// grid line) and its weight (half on the border).
+pub(super) fn quadrature_axis(n: usize, f: usize) -> ([usize; 2], [f64; 2], f64) {
+    let border = if f == 0 || f == 2 * n { 0.5 } else { 1.0 };
+    if f % 2 == 0 {
+        ([f / 2, f / 2], [1.0, 0.0], border)
+    } else {
+        ([f / 2, f / 2 + 1], [0.5, 0.5], border)
+    }
+}
+
 /// Moves the samples off the surface so that the bilinear quads between
 /// them fit it in the least-squares sense instead of interpolating it:
 /// interpolation leaves the quads on the inner side of every bend (a chord
@@ -237,16 +250,7 @@ fn rasterize(disk: &Disk, uv: &[DVec2], n: usize) -> (Vec<DVec3>, usize) {
 fn fit(positions: &mut [DVec3], id: &[u32], fine: &[DVec3], n: usize, rounds: usize) {
     let side = n + 1;
     let fine_side = 2 * n + 1;
-    // Along one axis, per fine index: the coarse points it lies between and
-    // their hat-function values (one point when it lies on a coarse line).
-    let axis = |f: usize| -> ([usize; 2], [f64; 2], f64) {
-        let border = if f == 0 || f == 2 * n { 0.5 } else { 1.0 };
-        if f % 2 == 0 {
-            ([f / 2, f / 2], [1.0, 0.0], border)
-        } else {
-            ([f / 2, f / 2 + 1], [0.5, 0.5], border)
-        }
-    };
+    let axis = |f: usize| quadrature_axis(n, f);
     let mut num = vec![DVec3::ZERO; positions.len()];
     let mut den = vec![0.0f64; positions.len()];
     for _ in 0..rounds {
