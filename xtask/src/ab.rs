@@ -26,7 +26,8 @@ const BUDGETS: usize = 25;
 
 const USAGE: &str = "usage: cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--out FILE]\n  \
     SPEC: comma-separated frames=auto|off|LEVEL, normal=BITS, weight=BITS, update=none|paper|mean,\n  \
-    remesh=normal|plain (with or without the remesher's normal placement)\n  \
+    remesh=normal|plain (with or without the remesher's normal placement),\n  \
+    level=L (remesh level), spv=N (remesh samples per input vertex)\n  \
     (A defaults to frames=off,normal=0, the version 1 coding; B to the defaults)";
 
 /// Parses a setting list into encoder and remesher options.
@@ -67,6 +68,14 @@ fn options(spec: &str) -> Result<(EncodeOptions, RemeshOptions), String> {
                     "plain" => false,
                     _ => return Err(format!("{item}: normal or plain")),
                 });
+                o
+            }
+            "level" => {
+                r = r.with_level(Some(number()?));
+                o
+            }
+            "spv" => {
+                r = r.with_samples_per_vertex(f64::from(number()?));
                 o
             }
             _ => return Err(format!("{item}: unknown setting\n{USAGE}")),
