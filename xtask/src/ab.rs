@@ -12,7 +12,9 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use indicatif::{ProgressBar, ProgressStyle};
-use qm::{DecodeOptions, EncodeOptions, Frames, RemeshOptions, UpdateRule, Weighting};
+use qm::{
+    BasePlacement, DecodeOptions, EncodeOptions, Frames, RemeshOptions, UpdateRule, Weighting,
+};
 
 use crate::rd::{self, AtPsnr, bytes_at};
 
@@ -24,7 +26,8 @@ const TARGETS_DB: [f64; 4] = [60.0, 65.0, 70.0, 78.0];
 const BUDGETS: usize = 25;
 
 const USAGE: &str = "usage: cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--out FILE]\n  \
-    SPEC: comma-separated frames=auto|off|LEVEL, normal=BITS, weight=BITS, update=none|paper|mean\n  \
+    SPEC: comma-separated frames=auto|off|LEVEL, normal=BITS, weight=BITS, update=none|paper|mean,\n  \
+    base=front|stream\n  \
     (A defaults to frames=off,normal=0, the version 1 coding; B to the defaults)";
 
 /// Parses a setting list into encoder options.
@@ -57,6 +60,11 @@ fn options(spec: &str) -> Result<EncodeOptions, String> {
                 "paper" => UpdateRule::Paper,
                 "mean" => UpdateRule::MeanPreserving,
                 _ => return Err(format!("{item}: none, paper or mean")),
+            }),
+            "base" => o.with_base(match value {
+                "front" => BasePlacement::Front,
+                "stream" => BasePlacement::Stream,
+                _ => return Err(format!("{item}: front or stream")),
             }),
             _ => return Err(format!("{item}: unknown setting\n{USAGE}")),
         };

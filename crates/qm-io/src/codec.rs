@@ -2,8 +2,11 @@
 //!
 //! Encoding quantizes the samples, lifts them, gathers the details into
 //! zerotree order and codes them in bit planes; the base vertices' level-0
-//! values go into the base section. Decoding reverses each step on whatever
-//! prefix of the stream is present.
+//! values go into the base section, all but their low bits, which the bit
+//! planes carry with the details' bits of the same weight (format version
+//! 3; version 2 kept them whole in the base section). Decoding reverses each
+//! step on whatever prefix of the stream is present, base values with
+//! missing low bits at the centre of what is left.
 
 use qm_ezw::{Weighting, ZeroTree};
 use qm_lift::glam::DVec3;
@@ -32,6 +35,20 @@ pub struct EncodeOptions {
     /// How details are expressed: world axes or local frames, normal
     /// first (see [`qm_lift::frames`]).
     pub frames: Frames,
+    /// Where the base values' low bits go.
+    pub base: BasePlacement,
+}
+
+/// Where the encoder puts the low bits of the base (level-0) values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BasePlacement {
+    /// All in the base section, before the stream (format version 2).
+    Front,
+    /// The bits whose weighted plane has a pass in the stream, each at the
+    /// start of its pass (format version 3, the default; see
+    /// [`qm_ezw::Weighting::base_bits`]): a cut stream then needs only as
+    /// much base precision as its details have.
+    Stream,
 }
 
 /// How the encoder expresses the details.
@@ -69,6 +86,7 @@ impl EncodeOptions {
         update: UpdateRule::MeanPreserving,
         weighting: Weighting::LEVELS.with_normal_bits(DEFAULT_NORMAL_BITS),
         frames: Frames::Auto,
+        base: BasePlacement::Stream,
     };
 
     /// Sets the quantization bits.
@@ -110,6 +128,12 @@ impl EncodeOptions {
     /// Sets how details are expressed.
     pub const fn with_frame_source(mut self, frames: Frames) -> Self {
         self.frames = frames;
+        self
+    }
+
+    /// Sets where the base values' low bits go.
+    pub const fn with_base(mut self, base: BasePlacement) -> Self {
+        self.base = base;
         self
     }
 }
@@ -228,9 +252,16 @@ fn compress_with(
         .forward(&mut data);
     let tree = ZeroTree::new(layout);
     let coefs = tree.gather(&data);
-    let encoded = qm_ezw::encode(&tree, &coefs, options.weighting, options.passes);
     let base = layout.base();
+    let values = &data[..base.vertex_count() as usize];
+    let (version, in_stream) = match options.base {
+        BasePlacement::Front => (2, None),
+        BasePlacement::Stream => (container::VERSION, Some(values)),
+    };
+    let encoded = qm_ezw::encode(&tree, &coefs, in_stream, options.weighting, options.passes);
+    let low_bits = encoded.params.base_bits;
     let header = Header {
+        version,
         bits: options.bits as u8,
         level: layout.level() as u8,
         update: options.update.code(),
@@ -247,7 +278,8 @@ fn compress_with(
     };
     let section = BaseSection {
         faces: base.faces().to_vec(),
-        values: data[..base.vertex_count() as usize].to_vec(),
+        values: values.iter().map(|v| v.map(|x| x >> low_bits)).collect(),
+        low_bits,
     };
     let bytes = container::write(&header, &section, &encoded.bytes)?;
     let prefix = bytes.len() - encoded.bytes.len();
@@ -460,6 +492,7 @@ pub fn decompress(bytes: &[u8], options: &DecodeOptions) -> Result<Decompressed>
 pub struct Decoder {
     checkpoint: std::cell::RefCell<Option<qm_ezw::Checkpoint>>,
     header: Header,
+    /// The base section's values: high parts when the stream holds low bits.
     base_values: Vec<Coord>,
     layout: Layout,
     tree: ZeroTree,
@@ -562,6 +595,13 @@ impl Decoder {
         values.clear();
         values.resize(self.layout.sample_count(), [0; 3]);
         values[..self.base_values.len()].copy_from_slice(&self.base_values);
+        if !decoded.base_low.is_empty() {
+            // The container checked that high and low parts fit 32 bits.
+            let k = params.base_bits;
+            for (v, low) in values.iter_mut().zip(&decoded.base_low) {
+                *v = std::array::from_fn(|c| (v[c] << k) + low[c]);
+            }
+        }
         self.tree.scatter(&decoded.coefs, values);
         let level = level.map_or(self.layout.level(), |l| l.min(self.layout.level()));
         let update = UpdateRule::from_code(self.header.update).expect("checked by the container");
