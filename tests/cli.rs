@@ -109,8 +109,9 @@ fn info_json_reports_the_layout() {
     assert!(v["passes"].as_u64().unwrap() > 10);
     assert_eq!(
         (&v["version"], &v["frames"], &v["normal_bits"]),
-        (&2.into(), &true.into(), &2.into())
+        (&3.into(), &true.into(), &2.into())
     );
+    assert!(v["base_low_bits_in_stream"].as_u64().unwrap() > 0);
 
     // World axes on request; both decode to the same lossless mesh.
     let out = qm(

@@ -12,6 +12,20 @@
 //! along it; measured on remeshed models, 2 bits gained about 2 dB at equal
 //! bytes over coding the three alike.
 //!
+//! **Base values.** The level-0 values (base vertex positions after
+//! lifting, world axes) weigh `s0 = bits_per_level * L` bits, as a level-0
+//! coefficient would, and no normal bits. Their low `k = planes - s0` bits
+//! (at most [`MAX_BASE_BITS`]) are those whose weighted plane `b + s0` is a
+//! pass of the stream: the stream can carry them ([`encode`] with `base`),
+//! and the caller stores only `value >> k`. Bit `b` of every base value is
+//! coded in the pass of plane `b + s0`, at its very start (level 0 is
+//! coarser than every detail level), vertex by vertex, with one adaptive
+//! context per coordinate and bit (they are close to even). A cut stream
+//! thus holds each base value to the precision of the details around it,
+//! instead of all of them exactly up front; unknown low bits are
+//! reconstructed at the centre of what is left, as unresolved coefficients
+//! are.
+//!
 //! **Passes.** Plane `P` runs from `T0 = floor(log2 max weighted |c|)` down
 //! to 0, one pass per plane (the paper's halving thresholds; its garbled T0
 //! formula becomes this). A pass goes through the levels coarse to fine; at

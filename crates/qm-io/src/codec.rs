@@ -649,6 +649,43 @@ mod tests {
         assert_eq!(values, c.quantized);
     }
 
+    /// The base values' low bits arrive with the passes of their weight:
+    /// after `p` passes each is within half the weight of its first unknown
+    /// bit of the true level-0 value (what the version 2 base section held
+    /// whole), a bound that halves with every pass that carries base bits.
+    /// (One value can move away: one at the centre of its interval is off
+    /// by a quarter of it once the next bit is known.)
+    #[test]
+    fn base_values_sharpen_pass_by_pass() {
+        let mesh = sphere(4);
+        let stream = compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
+        let front = EncodeOptions::DEFAULT.with_base(BasePlacement::Front);
+        let front = compress(&mesh, &front).unwrap();
+        assert!(stream.base_bytes < front.base_bytes);
+        let truth = container::read(&front.bytes, &Limits::DEFAULT)
+            .unwrap()
+            .base
+            .values;
+        let decoder = Decoder::new(&stream.bytes, &Limits::DEFAULT).unwrap();
+        let (h, k) = (decoder.header(), decoder.header().stream_params().base_bits);
+        let s0 = h.weight_bits as u32 * h.level as u32;
+        assert_eq!(k, h.planes as u32 - s0);
+        let stream_bytes = &stream.bytes[decoder.stream_start()..];
+        let mut values = Vec::new();
+        let mut worst = i32::MAX;
+        for p in 0..=h.planes as u32 {
+            decoder.decode_into(stream_bytes, Some(p), Some(0), &mut values);
+            worst = (values.iter().zip(&truth))
+                .flat_map(|(v, t)| (0..3).map(move |c| (v[c] - t[c]).abs()))
+                .max()
+                .unwrap();
+            let unknown = (h.planes as u32 - p).saturating_sub(s0).min(k);
+            assert!(worst <= (1 << unknown) / 2, "pass {p}: off by {worst}");
+            assert!(p > 0 || worst > 1 << (k - 3), "pass 0 knows no low bit");
+        }
+        assert_eq!(worst, 0);
+    }
+
     #[test]
     fn byte_budget_and_coarser_levels() {
         let mesh = sphere(4);

@@ -594,9 +594,10 @@ mod tests {
 
     #[test]
     fn absurd_sizes_are_refused() {
-        let (mut header, base) = sample();
+        let (mut header, mut base) = sample();
         header.level = 12;
         header.base_faces = 1 << 20;
+        base.low_bits = header.stream_params().base_bits;
         let bytes = write(&header, &base, b"").unwrap();
         assert!(matches!(
             read(&bytes, &Limits::DEFAULT),
