@@ -109,8 +109,11 @@ fn info_json_reports_the_layout() {
     assert!(v["passes"].as_u64().unwrap() > 10);
     assert_eq!(
         (&v["version"], &v["frames"], &v["normal_bits"]),
-        (&2.into(), &true.into(), &2.into())
+        (&3.into(), &true.into(), &2.into())
     );
+    // The cube's corners predict each other exactly: no noise bits to
+    // move into the stream.
+    assert_eq!(v["base_low_bits_in_stream"], 0);
 
     // World axes on request; both decode to the same lossless mesh.
     let out = qm(

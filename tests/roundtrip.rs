@@ -3,7 +3,7 @@
 mod common;
 
 use common::{QUAD_MODELS, asset, rms};
-use qm::{DecodeOptions, EncodeOptions};
+use qm::{BasePlacement, DecodeOptions, EncodeOptions, Weighting};
 
 /// After all passes the decoder returns exactly the quantized samples, and
 /// those are the input vertices, quantized.
@@ -50,12 +50,28 @@ fn lossless_round_trip_on_external_quad_meshes() {
 /// these models: at most 0.30 dB (cc_cube), 0.04 dB elsewhere.
 const TOLERATED_RISE_DB: f64 = 0.5;
 
+/// The same with the base values' low bits in the stream, for the first
+/// passes, while the base values are known to only a few bits: each then
+/// sits at the centre of a wide interval, and a value that happens to lie
+/// near that centre moves away by a quarter of it when its next bit
+/// arrives. Over many base vertices that averages out; cc_cube has 8,
+/// each shaping an eighth of the surface, and its error rose 7.2 dB from
+/// pass 1 to 2 and 3.1 dB from 3 to 4 (every other model: within
+/// [`TOLERATED_RISE_DB`] throughout).
+const TOLERATED_EARLY_RISE_DB: f64 = 7.5;
+
+/// Passes (and cuts before their end) that [`TOLERATED_EARLY_RISE_DB`]
+/// covers.
+const EARLY_PASSES: usize = 4;
+
 /// Every prefix decodes, the header-only prefix included; the error against
-/// the input falls from cut to cut (within the tolerance above) and over
-/// every pass count, and the full stream is the best of all.
+/// the input falls from cut to cut (within the tolerances above) and over
+/// every pass count, and the full stream is the best of all; with the base
+/// values whole in front (version 2) and with their low bits in the stream.
 #[test]
 fn every_prefix_decodes_and_error_falls() {
-    for name in QUAD_MODELS {
+    let placements = [BasePlacement::Stream, BasePlacement::Front];
+    for (name, placement) in QUAD_MODELS.iter().flat_map(|n| placements.map(|p| (n, p))) {
         let input = qm::read_mesh(&asset(&format!("quad/{name}"))).unwrap();
         let prepared = qm::detect(&input).unwrap();
         let original: Vec<_> = prepared
@@ -63,9 +79,11 @@ fn every_prefix_decodes_and_error_falls() {
             .iter()
             .map(|&v| input.positions[v as usize])
             .collect();
-        let compressed = qm::compress(&prepared.mesh, &EncodeOptions::DEFAULT).unwrap();
+        let options = EncodeOptions::DEFAULT.with_base(placement);
+        let compressed = qm::compress(&prepared.mesh, &options).unwrap();
         let total = compressed.bytes.len();
         let start = compressed.header_bytes + compressed.base_bytes;
+        let early_end = compressed.pass_ends[EARLY_PASSES - 1];
         assert!(
             total - start > 500,
             "{name}: a real stream ({} bytes)",
@@ -76,27 +94,39 @@ fn every_prefix_decodes_and_error_falls() {
             let positions: Vec<_> = (0..original.len()).map(|s| decoded.position(s)).collect();
             rms(&positions, &original)
         };
-        let cuts = std::iter::once(start).chain((1..=50).map(|k| start + (total - start) * k / 50));
+        let cuts: Vec<usize> = std::iter::once(start)
+            .chain((1..=50).map(|k| start + (total - start) * k / 50))
+            .collect();
         let by_cut: Vec<f64> = cuts
-            .map(|cut| error(DecodeOptions::default().with_max_bytes(Some(cut))))
+            .iter()
+            .map(|&cut| error(DecodeOptions::default().with_max_bytes(Some(cut))))
             .collect();
         let passes = compressed.pass_ends.len() as u32;
         let by_pass: Vec<f64> = (0..=passes)
             .map(|p| error(DecodeOptions::default().with_passes(Some(p))))
             .collect();
-        for (what, errors) in [("cut", &by_cut), ("pass", &by_pass)] {
+        let early_cut = |k: usize| cuts[k] <= early_end;
+        let early_pass = |k: usize| k <= EARLY_PASSES;
+        for (what, errors, early) in [
+            ("cut", &by_cut, &early_cut as &dyn Fn(usize) -> bool),
+            ("pass", &by_pass, &early_pass),
+        ] {
             for (k, w) in errors.windows(2).enumerate() {
                 let rise_db = 20.0 * (w[1] / w[0]).log10();
+                let tolerated = match placement {
+                    BasePlacement::Stream if early(k + 1) => TOLERATED_EARLY_RISE_DB,
+                    _ => TOLERATED_RISE_DB,
+                };
                 assert!(
-                    rise_db <= TOLERATED_RISE_DB,
-                    "{name}: {what} {}: error rose {rise_db:.3} dB",
+                    rise_db <= tolerated,
+                    "{name} {placement:?}: {what} {}: error rose {rise_db:.3} dB",
                     k + 1
                 );
             }
             let last = *errors.last().unwrap();
             assert!(
                 errors[..errors.len() - 1].iter().all(|&e| e > last),
-                "{name}: the full stream is best"
+                "{name} {placement:?}: the full stream is best"
             );
             assert!(
                 errors[0] > 100.0 * last,
@@ -213,12 +243,99 @@ fn first_version_2_frames_still_decode() {
     assert_eq!((file[4], old.header.frames), (2, 1));
     let input = qm::read_mesh(&asset("quad/holed_grid_l4.obj")).unwrap();
     let prepared = qm::detect(&input).unwrap();
-    let options = EncodeOptions::DEFAULT.with_frame_source(qm::Frames::ParentsFrom(3));
+    let options = EncodeOptions::DEFAULT
+        .with_frame_source(qm::Frames::ParentsFrom(3))
+        .with_base(BasePlacement::Front);
     let new = qm::compress(&prepared.mesh, &options).unwrap();
     assert_eq!(new.bytes, file);
     assert_eq!(old.values, new.quantized);
     // Read as parents from level 4 instead, the details would turn wrong.
-    let options = EncodeOptions::DEFAULT.with_frame_source(qm::Frames::ParentsFrom(4));
+    let options = options.with_frame_source(qm::Frames::ParentsFrom(4));
     let other = qm::compress(&prepared.mesh, &options).unwrap();
     assert_ne!(other.bytes, file);
+}
+
+/// Version 3 moved the base values' low bits into the stream;
+/// `tests/data/cc_dodecahedron_v3.qm` is `qm compress
+/// assets/quad/cc_dodecahedron.obj` from the first version 3 build (10 low
+/// bits of each base value in the stream). The
+/// encoder must still write it byte for byte, it must decode exactly, and
+/// its cuts must decode too.
+#[test]
+fn first_version_3_files_still_decode() {
+    let file = std::fs::read(asset("../tests/data/cc_dodecahedron_v3.qm")).unwrap();
+    let old = qm::decompress(&file, &DecodeOptions::default()).unwrap();
+    assert_eq!(file[4], 3);
+    let c = qm::io::container::read(&file, &qm::Limits::DEFAULT).unwrap();
+    assert_eq!(c.base.low_bits, 10, "base bits in the stream");
+    let input = qm::read_mesh(&asset("quad/cc_dodecahedron.obj")).unwrap();
+    let prepared = qm::detect(&input).unwrap();
+    let new = qm::compress(&prepared.mesh, &EncodeOptions::DEFAULT).unwrap();
+    assert_eq!(new.bytes, file);
+    assert_eq!(old.values, new.quantized);
+    let start = new.header_bytes + new.base_bytes;
+    let cut = qm::decompress(&file[..start + 100], &DecodeOptions::default()).unwrap();
+    assert!(cut.truncated && cut.values != old.values);
+}
+
+/// However many low bits of the base values the stream carries, none
+/// (every plane of the stream weighs less than the base values' lowest bit)
+/// or some, the last pass gives the quantized samples back
+/// exactly, and every cut decodes; the same mesh with the base values all
+/// in front (version 2) decodes to the same.
+#[test]
+fn base_bits_in_the_stream_round_trip() {
+    use qm::lift::glam::DVec3;
+    use qm::lift::{BaseMesh, Layout};
+    let sphere = qm::lift::synthetic::bumpy_sphere(5);
+    // A gently bent square at 4 bits: its details are rounding noise of a
+    // step or two, which the level weighting puts below the base values'
+    // lowest bit.
+    let layout = Layout::new(BaseMesh::new(4, vec![[0, 1, 2, 3]]).unwrap(), 3).unwrap();
+    let mut positions = vec![DVec3::ZERO; layout.sample_count()];
+    let n = layout.n();
+    for (k, &s) in layout.face_grid(0).iter().enumerate() {
+        let (x, y) = (
+            (k % (n + 1)) as f64 / n as f64,
+            (k / (n + 1)) as f64 / n as f64,
+        );
+        positions[s as usize] = DVec3::new(x, y, 0.1 * x * y);
+    }
+    let bent = qm::SemiRegularMesh::new(layout, positions).unwrap();
+    let weighting = |bits_per_level, normal_bits| Weighting {
+        bits_per_level,
+        normal_bits,
+    };
+    let mut low_bits = Vec::new();
+    for (mesh, bits, weighting) in [
+        (&bent, 4, weighting(2, 0)),
+        (&sphere, 4, weighting(2, 0)),
+        (&sphere, 16, weighting(1, 2)),
+        (&sphere, 16, weighting(0, 2)),
+        (&sphere, 12, weighting(1, 0)),
+    ] {
+        let options = EncodeOptions::DEFAULT
+            .with_bits(bits)
+            .with_weighting(weighting);
+        let stream = qm::compress(mesh, &options).unwrap();
+        let front = qm::compress(mesh, &options.with_base(BasePlacement::Front)).unwrap();
+        let c = qm::io::container::read(&stream.bytes, &qm::Limits::DEFAULT).unwrap();
+        low_bits.push(c.base.low_bits);
+        assert_eq!((stream.bytes[4], front.bytes[4]), (3, 2));
+        for compressed in [&stream, &front] {
+            let d = qm::decompress(&compressed.bytes, &DecodeOptions::default()).unwrap();
+            assert_eq!(d.values, compressed.quantized, "{bits} bits, {weighting:?}");
+        }
+        let start = stream.header_bytes + stream.base_bytes;
+        assert!(stream.bytes.len() > start, "a stream of details");
+        for cut in (start..stream.bytes.len()).step_by(stream.bytes.len() / 40 + 1) {
+            let d = qm::decompress(&stream.bytes[..cut], &DecodeOptions::default()).unwrap();
+            assert!(d.truncated, "cut {cut}");
+        }
+    }
+    // None, and some: the encoder moves the bits that are noise to the
+    // base values' prediction (`basecode::noise_bits`); the coder's own
+    // tests cover every count up to all of them.
+    assert_eq!(low_bits[0], 0, "{low_bits:?}");
+    assert!(low_bits[2..].iter().all(|&k| k > 0), "{low_bits:?}");
 }

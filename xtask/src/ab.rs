@@ -13,7 +13,9 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use indicatif::{ProgressBar, ProgressStyle};
-use qm::{DecodeOptions, EncodeOptions, Frames, RemeshOptions, UpdateRule, Weighting};
+use qm::{
+    BasePlacement, DecodeOptions, EncodeOptions, Frames, RemeshOptions, UpdateRule, Weighting,
+};
 
 use crate::rd::{self, AtPsnr, bytes_at};
 
@@ -27,7 +29,7 @@ const BUDGETS: usize = 25;
 const USAGE: &str = "usage: cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--out FILE]\n  \
     SPEC: comma-separated frames=auto|off|LEVEL, normal=BITS, weight=BITS, update=none|paper|mean,\n  \
     remesh=normal|plain (with or without the remesher's normal placement),\n  \
-    level=L (remesh level), spv=N (remesh samples per input vertex)\n  \
+    level=L (remesh level), spv=N (remesh samples per input vertex), base=front|stream\n  \
     (A defaults to frames=off,normal=0, the version 1 coding; B to the defaults)";
 
 /// Parses a setting list into encoder and remesher options.
@@ -78,6 +80,11 @@ fn options(spec: &str) -> Result<(EncodeOptions, RemeshOptions), String> {
                 r = r.with_samples_per_vertex(f64::from(number()?));
                 o
             }
+            "base" => o.with_base(match value {
+                "front" => BasePlacement::Front,
+                "stream" => BasePlacement::Stream,
+                _ => return Err(format!("{item}: front or stream")),
+            }),
             _ => return Err(format!("{item}: unknown setting\n{USAGE}")),
         };
     }

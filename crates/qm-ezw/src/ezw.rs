@@ -12,6 +12,20 @@
 //! along it; measured on remeshed models, 2 bits gained about 2 dB at equal
 //! bytes over coding the three alike.
 //!
+//! **Base values.** The level-0 values (base vertex positions after
+//! lifting, world axes) weigh `s0 = bits_per_level * L` bits, as a level-0
+//! coefficient would, and no normal bits. Their low `k = planes - s0` bits
+//! (at most [`MAX_BASE_BITS`]) are those whose weighted plane `b + s0` is a
+//! pass of the stream: the stream can carry them ([`encode`] with `base`),
+//! and the caller stores only `value >> k`. Bit `b` of every base value is
+//! coded in the pass of plane `b + s0`, at its very start (level 0 is
+//! coarser than every detail level), vertex by vertex, with one adaptive
+//! context per coordinate and bit (they are close to even). A cut stream
+//! thus holds each base value to the precision of the details around it,
+//! instead of all of them exactly up front; unknown low bits are
+//! reconstructed at the centre of what is left, as unresolved coefficients
+//! are.
+//!
 //! **Passes.** Plane `P` runs from `T0 = floor(log2 max weighted |c|)` down
 //! to 0, one pass per plane (the paper's halving thresholds; its garbled T0
 //! formula becomes this). A pass goes through the levels coarse to fine; at
@@ -86,7 +100,38 @@ impl Weighting {
     fn shift(self, level: u32, coord: usize, max_level: u32) -> u32 {
         self.bits_per_level * (max_level - level) + if coord == 0 { self.normal_bits } else { 0 }
     }
+
+    /// Weight in bits of the level-0 (base) values, `s0 = bits_per_level
+    /// * L + 1`: they are in world axes, so no coordinate gets the normal
+    /// bits, and a base value moves its whole neighbourhood one way (a
+    /// scaling function, not a zero-mean wavelet), which is worth one bit
+    /// more than a level-0 detail would be ([`BASE_EXTRA_BITS`]).
+    pub fn base_shift(self, max_level: u32) -> u32 {
+        self.bits_per_level * max_level + BASE_EXTRA_BITS
+    }
+
+    /// The most low bits of every base value a stream of `planes` planes
+    /// can carry: those whose weighted plane `b + s0` has a pass, that is
+    /// `clamp(planes - s0, 0, MAX_BASE_BITS)`.
+    pub fn max_base_bits(self, planes: u32, max_level: u32) -> u32 {
+        planes
+            .saturating_sub(self.base_shift(max_level))
+            .min(MAX_BASE_BITS)
+    }
 }
+
+/// Weight in bits of a base value beyond that of a level-0 detail (see
+/// [`Weighting::base_shift`]). Measured with 11 low bits in the stream
+/// (`cargo xtask ab --a base=front --b ""` on the bunny, spot and
+/// rocker-arm, gain at 60 / 65 / 70 / 78 dB): with 0 the bunny lost 0.41
+/// and 0.47 dB at 70 and 78 dB; 1 gave +0.42 / +0.32 / +0.13 / -0.01 dB
+/// on the bunny and +0.55 to +2.63 dB at 60 dB on all three; 2 gained less
+/// (+0.33 to +2.43 dB at 60 dB).
+pub const BASE_EXTRA_BITS: u32 = 1;
+
+/// Most low bits of a base value the stream carries (the rest of a 32-bit
+/// value stays in the base section; quantized values have at most 24 bits).
+pub const MAX_BASE_BITS: u32 = 30;
 
 /// What the decoder must know to follow the encoder: stored in the header.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -98,6 +143,9 @@ pub struct StreamParams {
     pub passes: u32,
     /// Level weighting.
     pub weighting: Weighting,
+    /// Low bits of each base value coded in the stream ([`Weighting::base_bits`]
+    /// of `planes`), or 0 when the base values are all elsewhere.
+    pub base_bits: u32,
 }
 
 /// Result of encoding.
@@ -116,6 +164,11 @@ pub struct Encoded {
 pub struct Decoded {
     /// Reconstructed coefficients in node order.
     pub coefs: Vec<Coef>,
+    /// Reconstructed low [`StreamParams::base_bits`] bits of each base
+    /// value (in `0 .. 2^base_bits`, the centre of what is known), to add
+    /// to its high part `(value >> base_bits) << base_bits`; empty when the
+    /// stream carries no base bits.
+    pub base_low: Vec<Coef>,
     /// Passes decoded completely.
     pub passes: u32,
     /// Whether the stream ended before the passes asked for were complete.
@@ -124,18 +177,33 @@ pub struct Decoded {
     pub bytes_read: usize,
 }
 
-/// Encodes node-ordered `coefs` of `tree`, at most `max_passes` passes.
+/// Base values whose low bits a stream is to carry.
+#[derive(Clone, Copy, Debug)]
+pub struct BaseBits<'a> {
+    /// The level-0 values, one per base vertex.
+    pub values: &'a [Coef],
+    /// The most low bits of each to carry; the stream carries fewer when
+    /// it has no pass for them ([`Weighting::max_base_bits`]).
+    pub most: u32,
+}
+
+/// Encodes node-ordered `coefs` of `tree`, at most `max_passes` passes,
+/// and, when `base` is given, the low [`StreamParams::base_bits`] bits of
+/// its values; the rest of them (`value >> base_bits`) is for the caller
+/// to store.
 pub fn encode(
     tree: &ZeroTree,
     coefs: &[Coef],
+    base: Option<BaseBits<'_>>,
     weighting: Weighting,
     max_passes: Option<u32>,
 ) -> Encoded {
-    let (params, below) = plan(tree, coefs, weighting, max_passes);
+    let (params, below) = plan(tree, coefs, base, weighting, max_passes);
     let passes = params.passes;
     let mut oracle = Truth {
         coefs,
         below: &below,
+        base: base.map_or(&[], |b| b.values),
     };
     let mut writer = BitWriter::new();
     let mut state = State::new(tree, params);
@@ -161,10 +229,18 @@ pub fn encode(
 fn plan(
     tree: &ZeroTree,
     coefs: &[Coef],
+    base: Option<BaseBits<'_>>,
     weighting: Weighting,
     max_passes: Option<u32>,
 ) -> (StreamParams, Vec<i32>) {
     assert_eq!(coefs.len(), tree.len(), "one coefficient per tree node");
+    if let Some(base) = base {
+        assert_eq!(
+            base.values.len(),
+            tree.base_vertices(),
+            "one value per base vertex"
+        );
+    }
     let big_l = tree.max_level();
     let levels = tree.levels();
     let weighted_top = |k: usize| -> i32 {
@@ -195,6 +271,7 @@ fn plan(
         planes,
         passes,
         weighting,
+        base_bits: base.map_or(0, |b| weighting.max_base_bits(planes, big_l).min(b.most)),
     };
     (params, below)
 }
@@ -316,6 +393,7 @@ fn run_decoder(
     }
     let decoded = Decoded {
         coefs: state.reconstruct(),
+        base_low: state.reconstruct_base(),
         passes: done,
         truncated,
         bytes_read: reader.position(),
@@ -351,6 +429,7 @@ enum Sym {
     Sign(usize),
     Zerotree(usize),
     Refinement(usize, usize),
+    Base,
 }
 
 /// Symbols coded and their cost under the adaptive models at coding time.
@@ -381,6 +460,8 @@ pub struct BitBudget {
     pub zerotree: [Cost; LEVEL_CLASSES],
     /// Refinement bits by level class and coordinate.
     pub refinement: [[Cost; 3]; LEVEL_CLASSES],
+    /// Low bits of the base values coded in the stream.
+    pub base: Cost,
 }
 
 /// An encoder that also adds up the cost of every symbol.
@@ -398,6 +479,7 @@ impl Coder for Tally {
             Sym::Sign(c) => b.sign[c].add(cost),
             Sym::Zerotree(class) => b.zerotree[class].add(cost),
             Sym::Refinement(class, c) => b.refinement[class][c].add(cost),
+            Sym::Base => b.base.add(cost),
         }
         self.writer.code(ctx, bit, sym)
     }
@@ -411,10 +493,11 @@ pub fn bit_budget(
     weighting: Weighting,
     max_passes: Option<u32>,
 ) -> Vec<BitBudget> {
-    let (params, below) = plan(tree, coefs, weighting, max_passes);
+    let (params, below) = plan(tree, coefs, None, weighting, max_passes);
     let mut oracle = Truth {
         coefs,
         below: &below,
+        base: &[],
     };
     let mut tally = Tally {
         writer: BitWriter::new(),
@@ -435,11 +518,14 @@ trait Oracle {
     fn magnitude(&self, node: usize, coord: usize) -> u32;
     fn negative(&self, node: usize, coord: usize) -> bool;
     fn below(&self, node: usize) -> i32;
+    /// Bit `bit` of coordinate `index % 3` of base value `index / 3`.
+    fn base_bit(&self, index: usize, bit: u32) -> bool;
 }
 
 struct Truth<'a> {
     coefs: &'a [Coef],
     below: &'a [i32],
+    base: &'a [Coef],
 }
 
 impl Oracle for Truth<'_> {
@@ -455,6 +541,10 @@ impl Oracle for Truth<'_> {
     fn below(&self, node: usize) -> i32 {
         self.below[node]
     }
+    #[inline]
+    fn base_bit(&self, index: usize, bit: u32) -> bool {
+        (self.base[index / 3][index % 3] >> bit) & 1 != 0
+    }
 }
 
 struct Unknown;
@@ -468,6 +558,9 @@ impl Oracle for Unknown {
     }
     fn below(&self, _: usize) -> i32 {
         -1
+    }
+    fn base_bit(&self, _: usize, _: u32) -> bool {
+        false
     }
 }
 
@@ -490,6 +583,8 @@ struct Models {
     zerotree: Vec<Context>,
     /// [coord][first refinement?]
     refine: [Context; 6],
+    /// Base value bits: [coord][bit]
+    base: Vec<Context>,
 }
 
 impl Models {
@@ -499,6 +594,7 @@ impl Models {
             sign: [Context::default(); 9],
             zerotree: vec![Context::default(); 2 * LEVEL_CLASSES * 4],
             refine: [Context::default(); 6],
+            base: vec![Context::default(); 3 * MAX_BASE_BITS as usize],
         }
     }
 }
@@ -520,11 +616,21 @@ struct State {
     models: Models,
     frontier: Vec<u32>,
     next: Vec<u32>,
+    /// Known low bits of each base coordinate (vertex-major, three per
+    /// vertex; empty without base bits).
+    base_known: Vec<u32>,
+    /// The lowest bit known of each base coordinate (`base_bits`: none).
+    base_low: Vec<u8>,
 }
 
 impl State {
     fn new(tree: &ZeroTree, params: StreamParams) -> Self {
         let n = tree.len();
+        let base_values = if params.base_bits > 0 {
+            tree.base_vertices()
+        } else {
+            0
+        };
         State {
             params,
             max_level: tree.max_level(),
@@ -535,6 +641,8 @@ impl State {
             models: Models::new(),
             frontier: Vec::new(),
             next: Vec::new(),
+            base_known: vec![0; 3 * base_values],
+            base_low: vec![params.base_bits as u8; 3 * base_values],
         }
     }
 
@@ -559,8 +667,33 @@ impl State {
         oracle: &mut O,
     ) -> Result<(), Truncated> {
         let plane = self.params.planes as i32 - 1 - pass as i32;
+        self.base_pass(plane, coder, oracle)?;
         let before: Vec<usize> = self.refine_lists.iter().map(Vec::len).collect();
         self.dominant(tree, plane, &before, coder, oracle)
+    }
+
+    /// Bit `plane - s0` of every base coordinate, if the stream carries it:
+    /// level 0 is coarser than every detail level, so its bits of a plane
+    /// come first.
+    fn base_pass<C: Coder, O: Oracle>(
+        &mut self,
+        plane: i32,
+        coder: &mut C,
+        oracle: &mut O,
+    ) -> Result<(), Truncated> {
+        let b = plane - self.params.weighting.base_shift(self.max_level) as i32;
+        if !(0..self.params.base_bits as i32).contains(&b) {
+            return Ok(());
+        }
+        let known = self.base_known.iter_mut().zip(&mut self.base_low);
+        for (i, (known, low)) in known.enumerate() {
+            let ctx = &mut self.models.base[(i % 3) * MAX_BASE_BITS as usize + b as usize];
+            if coder.code(ctx, oracle.base_bit(i, b as u32), Sym::Base)? {
+                *known |= 1 << b;
+            }
+            *low = b as u8;
+        }
+        Ok(())
     }
 
     fn dominant<C: Coder, O: Oracle>(
@@ -738,13 +871,26 @@ impl State {
         let mut coefs = vec![[0; 3]; self.sig.len()];
         for e in self.refine_lists.iter().flatten() {
             let (k, c) = (e.node as usize, e.coord as usize);
-            let low = e.low as u32;
-            let half = if low > 0 { 1u32 << (low - 1) } else { 0 };
-            let m = (e.mag + half) as i32;
+            let m = centre(e.mag, e.low) as i32;
             coefs[k][c] = if self.neg[k] & (1 << c) != 0 { -m } else { m };
         }
         coefs
     }
+
+    /// Centre of every base value's low bits (zeros without base bits).
+    fn reconstruct_base(&self) -> Vec<Coef> {
+        let mut low = vec![[0; 3]; self.base_known.len() / 3];
+        for (i, (&known, &bit)) in self.base_known.iter().zip(&self.base_low).enumerate() {
+            low[i / 3][i % 3] = centre(known, bit) as i32;
+        }
+        low
+    }
+}
+
+/// Centre of the values whose bits from `low` up are `known`.
+#[inline]
+fn centre(known: u32, low: u8) -> u32 {
+    known + if low > 0 { 1 << (low - 1) } else { 0 }
 }
 
 /// A significant coordinate and the bits known of its magnitude.
@@ -783,6 +929,33 @@ mod tests {
             .collect()
     }
 
+    /// Base values like quantized positions: 16 bits, some negative.
+    fn base(tree: &ZeroTree, seed: u64) -> Vec<Coef> {
+        let mut x = seed;
+        (0..tree.base_vertices())
+            .map(|_| {
+                std::array::from_fn(|_| {
+                    x ^= x << 13;
+                    x ^= x >> 7;
+                    x ^= x << 17;
+                    (x % 70_000) as i32 - 2000
+                })
+            })
+            .collect()
+    }
+
+    /// Base values from their high parts and a decoder's low bits.
+    fn join_base(values: &[Coef], dec: &Decoded, bits: u32) -> Vec<Coef> {
+        if dec.base_low.is_empty() {
+            return values.to_vec();
+        }
+        values
+            .iter()
+            .zip(&dec.base_low)
+            .map(|(v, low)| std::array::from_fn(|c| ((v[c] >> bits) << bits) + low[c]))
+            .collect()
+    }
+
     fn sq_error(a: &[Coef], b: &[Coef]) -> f64 {
         a.iter()
             .zip(b)
@@ -803,18 +976,113 @@ mod tests {
             },
         ] {
             let c = coefs(&tree, 99);
-            let enc = encode(&tree, &c, weighting, None);
+            let enc = encode(&tree, &c, None, weighting, None);
             let dec = decode(&tree, enc.params, &enc.bytes, None);
             assert!(!dec.truncated);
             assert_eq!(dec.passes, enc.params.planes);
             assert_eq!(dec.coefs, c);
+            assert!(dec.base_low.is_empty());
+        }
+    }
+
+    /// With base values in the stream, the last pass gives them back
+    /// exactly too, for every number of base bits from none to all.
+    #[test]
+    fn base_bits_are_lossless() {
+        let tree = ZeroTree::new(&layout(4));
+        let b = base(&tree, 7);
+        let flat = Weighting {
+            bits_per_level: 0,
+            normal_bits: 0,
+        };
+        let zeros = vec![[0; 3]; tree.len()];
+        // (coefficients, weighting, expected base bits): the top weighted
+        // plane is 11 (level-1 magnitudes below 4096) + 3 * bits_per_level
+        // (+ normal bits), s0 = 4 * bits_per_level + 1; zero coefficients
+        // leave no plane at all.
+        for (c, weighting, bits) in [
+            (coefs(&tree, 3), Weighting::default(), 10),
+            (coefs(&tree, 3), Weighting::LEVELS.with_normal_bits(2), 12),
+            (coefs(&tree, 3), flat, 11),
+            (
+                coefs(&tree, 3),
+                Weighting {
+                    bits_per_level: 2,
+                    normal_bits: 0,
+                },
+                9,
+            ),
+            (zeros, Weighting::default(), 0),
+        ] {
+            let enc = encode(&tree, &c, all_bits(&b), weighting, None);
+            assert_eq!(enc.params.base_bits, bits, "{weighting:?}");
+            let dec = decode(&tree, enc.params, &enc.bytes, None);
+            assert_eq!(dec.coefs, c);
+            assert_eq!(join_base(&b, &dec, bits), b, "{weighting:?}");
+            // The high parts alone cost nothing in the stream: the same
+            // stream as without base bits plus the low bits.
+            let without = encode(&tree, &c, None, weighting, None);
+            assert_eq!(without.params.planes, enc.params.planes);
+            assert!(without.bytes.len() <= enc.bytes.len());
+            assert_eq!(bits == 0, without.bytes == enc.bytes);
+            // Fewer bits on request, and the rest of the stream unchanged.
+            for most in [0, 1, bits / 2] {
+                let base = Some(BaseBits { values: &b, most });
+                let fewer = encode(&tree, &c, base, weighting, None);
+                assert_eq!(fewer.params.base_bits, most.min(bits));
+                let dec = decode(&tree, fewer.params, &fewer.bytes, None);
+                assert_eq!(dec.coefs, c);
+                assert_eq!(join_base(&b, &dec, most.min(bits)), b);
+                assert!(fewer.bytes.len() <= enc.bytes.len());
+            }
+        }
+    }
+
+    /// All the low bits the stream has passes for.
+    fn all_bits(b: &[Coef]) -> Option<BaseBits<'_>> {
+        Some(BaseBits {
+            values: b,
+            most: MAX_BASE_BITS,
+        })
+    }
+
+    /// Each base bit goes in the pass of its weighted plane: after `p`
+    /// passes a base value is known down to bit `planes - p - s0`, and the
+    /// rest is at the centre of what is left.
+    #[test]
+    fn base_bits_arrive_with_their_planes() {
+        let tree = ZeroTree::new(&layout(3));
+        let b = base(&tree, 8);
+        let c = coefs(&tree, 9);
+        let weighting = Weighting::LEVELS.with_normal_bits(2);
+        let enc = encode(&tree, &c, all_bits(&b), weighting, None);
+        let (planes, k) = (enc.params.planes, enc.params.base_bits);
+        let s0 = weighting.base_shift(3);
+        assert_eq!(k, planes - s0);
+        for p in 0..=planes {
+            let dec = decode(&tree, enc.params, &enc.bytes, Some(p));
+            let low = (planes - p).saturating_sub(s0).min(k);
+            let got = join_base(&b, &dec, k);
+            for (v, g) in b.iter().zip(&got) {
+                for i in 0..3 {
+                    let known = (v[i] >> low) << low;
+                    let half = if low > 0 { 1 << (low - 1) } else { 0 };
+                    assert_eq!(g[i], known + half, "pass {p}");
+                }
+            }
         }
     }
 
     #[test]
     fn all_zero_coefficients_cost_nothing() {
         let tree = ZeroTree::new(&layout(3));
-        let enc = encode(&tree, &vec![[0; 3]; tree.len()], Weighting::default(), None);
+        let enc = encode(
+            &tree,
+            &vec![[0; 3]; tree.len()],
+            None,
+            Weighting::default(),
+            None,
+        );
         assert_eq!(enc.params.planes, 0);
         let dec = decode(&tree, enc.params, &enc.bytes, None);
         assert!(dec.coefs.iter().all(|c| *c == [0; 3]));
@@ -824,22 +1092,28 @@ mod tests {
     fn prefixes_decode_and_error_never_rises() {
         let tree = ZeroTree::new(&layout(4));
         let c = coefs(&tree, 5);
+        let b = base(&tree, 6);
         let flat = Weighting {
             bits_per_level: 0,
             normal_bits: 0,
         };
-        let enc = encode(&tree, &c, flat, None);
-        let mut last = f64::INFINITY;
-        for cut in (0..=enc.bytes.len())
-            .step_by(enc.bytes.len() / 60 + 1)
-            .chain([enc.bytes.len()])
-        {
-            let dec = decode(&tree, enc.params, &enc.bytes[..cut], None);
-            let err = sq_error(&dec.coefs, &c);
-            assert!(err <= last, "cut {cut}: {err} > {last}");
-            last = err;
+        // Base values weigh as much as the coefficients here: with the level
+        // weighting, a base value counts 2^L times a finest detail.
+        for base in [None, all_bits(&b)] {
+            let enc = encode(&tree, &c, base, flat, None);
+            let k = enc.params.base_bits;
+            let mut last = f64::INFINITY;
+            for cut in (0..=enc.bytes.len())
+                .step_by(enc.bytes.len() / 60 + 1)
+                .chain([enc.bytes.len()])
+            {
+                let dec = decode(&tree, enc.params, &enc.bytes[..cut], None);
+                let err = sq_error(&dec.coefs, &c) + sq_error(&join_base(&b, &dec, k), &b);
+                assert!(err <= last, "cut {cut}: {err} > {last}");
+                last = err;
+            }
+            assert_eq!(last, 0.0);
         }
-        assert_eq!(last, 0.0);
     }
 
     /// Decoding longer and longer cuts from checkpoints gives exactly what
@@ -848,7 +1122,15 @@ mod tests {
     fn resuming_equals_decoding_from_scratch() {
         let tree = ZeroTree::new(&layout(4));
         let c = coefs(&tree, 21);
-        let enc = encode(&tree, &c, Weighting::LEVELS.with_normal_bits(2), None);
+        let b = base(&tree, 22);
+        let enc = encode(
+            &tree,
+            &c,
+            all_bits(&b),
+            Weighting::LEVELS.with_normal_bits(2),
+            None,
+        );
+        assert!(enc.params.base_bits > 0);
         let mut checkpoint = None;
         let mut resumed = 0;
         let n = enc.bytes.len();
@@ -861,12 +1143,13 @@ mod tests {
             }
             let (got, next) = decode_resuming(&tree, enc.params, data, None, from);
             assert_eq!(got.coefs, fresh.coefs, "cut {cut}");
+            assert_eq!(got.base_low, fresh.base_low, "cut {cut}");
             assert_eq!((got.passes, got.truncated), (fresh.passes, fresh.truncated));
             checkpoint = next;
         }
         assert!(resumed > 50, "checkpoints used {resumed} times");
         // A checkpoint of another stream, or past a pass limit, is ignored.
-        let other = encode(&tree, &coefs(&tree, 22), Weighting::default(), None);
+        let other = encode(&tree, &coefs(&tree, 22), None, Weighting::default(), None);
         let fresh = decode(&tree, other.params, &other.bytes, None);
         let (got, _) = decode_resuming(&tree, other.params, &other.bytes, None, checkpoint.clone());
         assert_eq!(got.coefs, fresh.coefs);
@@ -879,8 +1162,8 @@ mod tests {
     fn fewer_passes_are_a_prefix_of_more() {
         let tree = ZeroTree::new(&layout(3));
         let c = coefs(&tree, 11);
-        let full = encode(&tree, &c, Weighting::default(), None);
-        let four = encode(&tree, &c, Weighting::default(), Some(4));
+        let full = encode(&tree, &c, None, Weighting::default(), None);
+        let four = encode(&tree, &c, None, Weighting::default(), Some(4));
         assert_eq!(four.params.passes, 4);
         let a = decode(&tree, four.params, &four.bytes, None);
         let b = decode(&tree, full.params, &full.bytes, Some(4));

@@ -1,5 +1,7 @@
-//! The base section of format version 2: base faces and level-0 values,
-//! predicted and arithmetic-coded.
+//! The base section of format versions 2 and 3: base faces and level-0
+//! values, predicted and arithmetic-coded. In version 3 the values are the
+//! high parts `value >> k` (the stream carries the low `k` bits); the same
+//! prediction then works on the coarse values.
 //!
 //! Every number goes through the adaptive binary range coder of the stream
 //! ([`qm_ezw::BitWriter`]) as a signed Exp-Golomb code whose bits all have
@@ -180,13 +182,37 @@ pub(crate) fn encode(faces: &[[u32; 4]], values: &[[i32; 3]]) -> Vec<u8> {
     w.finish()
 }
 
-/// Decodes what [`encode`] wrote, given the counts from the header; the
-/// error says what is wrong.
+/// How many low bits of the `values` are noise to their prediction: the
+/// bits below the leading one of the median residual, but one (which the
+/// codes' contexts still predict a little). A stream that carries these
+/// bits instead of the base section loses next to nothing on them, and a
+/// cut of it needs only as many as its details can use.
+pub(crate) fn noise_bits(faces: &[[u32; 4]], values: &[[i32; 3]]) -> u32 {
+    let incidence = Incidence::new(faces, values.len());
+    let mut residuals: Vec<u64> = (0..values.len())
+        .flat_map(|v| {
+            let p = predict(v, faces, &incidence, values);
+            (0..3).map(move |i| (values[v][i] as i64 - p[i]).unsigned_abs())
+        })
+        .collect();
+    if residuals.is_empty() {
+        return 0;
+    }
+    let middle = residuals.len() / 2;
+    let median = *residuals.select_nth_unstable(middle).1;
+    (64 - median.leading_zeros()).saturating_sub(2)
+}
+
+/// Decodes what [`encode`] wrote, given the counts from the header and the
+/// number of low bits the stream holds of each value (so that a value with
+/// them still fits 32 bits); the error says what is wrong.
 pub(crate) fn decode(
     bytes: &[u8],
     face_count: usize,
     vertex_count: usize,
+    low_bits: u32,
 ) -> Result<BaseSection, String> {
+    let range = (i32::MIN >> low_bits) as i64..=(i32::MAX >> low_bits) as i64;
     let mut r = BitReader::new(bytes);
     let mut corner = vec![IntModel::new(); 4];
     let mut faces = Vec::with_capacity(face_count.min(bytes.len()));
@@ -213,12 +239,18 @@ pub(crate) fn decode(
         let mut value = [0i32; 3];
         for i in 0..3 {
             let x = p[i] + coord[i].get(&mut r)?;
-            value[i] = i32::try_from(x)
-                .map_err(|_| format!("base vertex {v} has a value out of range"))?;
+            if !range.contains(&x) {
+                return Err(format!("base vertex {v} has a value out of range"));
+            }
+            value[i] = x as i32;
         }
         values.push(value);
     }
-    Ok(BaseSection { faces, values })
+    Ok(BaseSection {
+        faces,
+        values,
+        low_bits,
+    })
 }
 
 #[cfg(test)]
@@ -251,11 +283,32 @@ mod tests {
     fn round_trip_and_size() {
         let (faces, values) = grid(9);
         let bytes = encode(&faces, &values);
-        let got = decode(&bytes, faces.len(), values.len()).unwrap();
+        let got = decode(&bytes, faces.len(), values.len(), 0).unwrap();
         assert_eq!((got.faces, got.values), (faces.clone(), values.clone()));
         // The plain coding took one byte per corner and about three per
         // coordinate: 324 + 300 bytes here.
         assert!(bytes.len() < 300, "{} bytes", bytes.len());
+    }
+
+    /// Noise bits follow the residuals: none on a plane (the parallelogram
+    /// rule is exact there), five more when the values are 32 times
+    /// larger, and the high parts left cost fewer bytes.
+    #[test]
+    fn noise_bits_follow_the_residuals() {
+        let (faces, values) = grid(9);
+        let flat: Vec<[i32; 3]> = values.iter().map(|v| [v[0], v[1], 0]).collect();
+        // Every coordinate curved, as on a real surface.
+        let values: Vec<[i32; 3]> = values
+            .iter()
+            .map(|v| [v[0] + v[2], v[1] - v[2], v[2]])
+            .collect();
+        assert_eq!(noise_bits(&faces, &flat), 0);
+        let k = noise_bits(&faces, &values);
+        assert!(k > 0);
+        let big: Vec<[i32; 3]> = values.iter().map(|v| v.map(|x| x * 32)).collect();
+        assert_eq!(noise_bits(&faces, &big), k + 5);
+        let high: Vec<[i32; 3]> = values.iter().map(|v| v.map(|x| x >> k)).collect();
+        assert!(encode(&faces, &high).len() < encode(&faces, &values).len());
     }
 
     #[test]
@@ -268,7 +321,7 @@ mod tests {
             [5, -5, 7],
         ];
         let bytes = encode(&faces, &values);
-        let got = decode(&bytes, 2, 4).unwrap();
+        let got = decode(&bytes, 2, 4, 0).unwrap();
         assert_eq!((got.faces, got.values), (faces, values));
     }
 
@@ -279,7 +332,7 @@ mod tests {
         // A cut either fails or, when the coder's last bytes were not
         // needed, still gives exactly the data.
         for cut in 0..bytes.len() {
-            if let Ok(got) = decode(&bytes[..cut], faces.len(), values.len()) {
+            if let Ok(got) = decode(&bytes[..cut], faces.len(), values.len(), 0) {
                 assert_eq!(
                     (got.faces, got.values),
                     (faces.clone(), values.clone()),
@@ -287,15 +340,15 @@ mod tests {
                 );
             }
         }
-        assert!(decode(&bytes[..bytes.len() / 2], faces.len(), values.len()).is_err());
+        assert!(decode(&bytes[..bytes.len() / 2], faces.len(), values.len(), 0).is_err());
         let mut x = 1u64;
         for _ in 0..2000 {
             let mut b = bytes.clone();
             x = x.wrapping_mul(6364136223846793005).wrapping_add(1);
             let at = (x >> 33) as usize % b.len();
             b[at] ^= 1 << ((x >> 20) % 8);
-            let _ = decode(&b, faces.len(), values.len());
+            let _ = decode(&b, faces.len(), values.len(), 0);
         }
-        assert!(decode(&bytes, faces.len(), values.len() - 1).is_err());
+        assert!(decode(&bytes, faces.len(), values.len() - 1, 0).is_err());
     }
 }

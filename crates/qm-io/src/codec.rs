@@ -2,15 +2,18 @@
 //!
 //! Encoding quantizes the samples, lifts them, gathers the details into
 //! zerotree order and codes them in bit planes; the base vertices' level-0
-//! values go into the base section. Decoding reverses each step on whatever
-//! prefix of the stream is present.
+//! values go into the base section, all but their low bits, which the bit
+//! planes carry with the details' bits of the same weight (format version
+//! 3; version 2 kept them whole in the base section). Decoding reverses each
+//! step on whatever prefix of the stream is present, base values with
+//! missing low bits at the centre of what is left.
 
 use qm_ezw::{Weighting, ZeroTree};
 use qm_lift::glam::DVec3;
 use qm_lift::{BaseMesh, Coord, Layout, Lifting, Quantizer, SemiRegularMesh, UpdateRule};
 
 use crate::container::{self, BaseSection, Header, Limits};
-use crate::{Error, PolyMesh, Result};
+use crate::{Error, PolyMesh, Result, basecode};
 
 /// Default extra weight, in bits, of the normal component of the details.
 pub const DEFAULT_NORMAL_BITS: u32 = 2;
@@ -32,6 +35,21 @@ pub struct EncodeOptions {
     /// How details are expressed: world axes or local frames, normal
     /// first (see [`qm_lift::frames`]).
     pub frames: Frames,
+    /// Where the base values' low bits go.
+    pub base: BasePlacement,
+}
+
+/// Where the encoder puts the low bits of the base (level-0) values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BasePlacement {
+    /// All in the base section, before the stream (format version 2).
+    Front,
+    /// The low bits that are noise to the base section's prediction (see
+    /// `basecode::noise_bits`), as many as have a pass, each at the start
+    /// of its pass (format version 3, the default; see
+    /// [`qm_ezw::Weighting::max_base_bits`]): a cut stream then needs only
+    /// as much base precision as its details have.
+    Stream,
 }
 
 /// How the encoder expresses the details.
@@ -69,6 +87,7 @@ impl EncodeOptions {
         update: UpdateRule::MeanPreserving,
         weighting: Weighting::LEVELS.with_normal_bits(DEFAULT_NORMAL_BITS),
         frames: Frames::Auto,
+        base: BasePlacement::Stream,
     };
 
     /// Sets the quantization bits.
@@ -110,6 +129,12 @@ impl EncodeOptions {
     /// Sets how details are expressed.
     pub const fn with_frame_source(mut self, frames: Frames) -> Self {
         self.frames = frames;
+        self
+    }
+
+    /// Sets where the base values' low bits go.
+    pub const fn with_base(mut self, base: BasePlacement) -> Self {
+        self.base = base;
         self
     }
 }
@@ -228,9 +253,23 @@ fn compress_with(
         .forward(&mut data);
     let tree = ZeroTree::new(layout);
     let coefs = tree.gather(&data);
-    let encoded = qm_ezw::encode(&tree, &coefs, options.weighting, options.passes);
     let base = layout.base();
+    let values = &data[..base.vertex_count() as usize];
+    let (version, in_stream) = match options.base {
+        BasePlacement::Front => (2, None),
+        BasePlacement::Stream => (
+            container::VERSION,
+            Some(qm_ezw::BaseBits {
+                values,
+                most: basecode::noise_bits(base.faces(), values),
+            }),
+        ),
+    };
+
+    let encoded = qm_ezw::encode(&tree, &coefs, in_stream, options.weighting, options.passes);
+    let low_bits = encoded.params.base_bits;
     let header = Header {
+        version,
         bits: options.bits as u8,
         level: layout.level() as u8,
         update: options.update.code(),
@@ -243,11 +282,12 @@ fn compress_with(
         base_faces: base.faces().len() as u32,
         planes: encoded.params.planes as u8,
         passes: encoded.params.passes as u8,
-        flags: 0,
+        flags: low_bits,
     };
     let section = BaseSection {
         faces: base.faces().to_vec(),
-        values: data[..base.vertex_count() as usize].to_vec(),
+        values: values.iter().map(|v| v.map(|x| x >> low_bits)).collect(),
+        low_bits,
     };
     let bytes = container::write(&header, &section, &encoded.bytes)?;
     let prefix = bytes.len() - encoded.bytes.len();
@@ -460,6 +500,7 @@ pub fn decompress(bytes: &[u8], options: &DecodeOptions) -> Result<Decompressed>
 pub struct Decoder {
     checkpoint: std::cell::RefCell<Option<qm_ezw::Checkpoint>>,
     header: Header,
+    /// The base section's values: high parts when the stream holds low bits.
     base_values: Vec<Coord>,
     layout: Layout,
     tree: ZeroTree,
@@ -562,6 +603,13 @@ impl Decoder {
         values.clear();
         values.resize(self.layout.sample_count(), [0; 3]);
         values[..self.base_values.len()].copy_from_slice(&self.base_values);
+        if !decoded.base_low.is_empty() {
+            // The container checked that high and low parts fit 32 bits.
+            let k = params.base_bits;
+            for (v, low) in values.iter_mut().zip(&decoded.base_low) {
+                *v = std::array::from_fn(|c| (v[c] << k) + low[c]);
+            }
+        }
         self.tree.scatter(&decoded.coefs, values);
         let level = level.map_or(self.layout.level(), |l| l.min(self.layout.level()));
         let update = UpdateRule::from_code(self.header.update).expect("checked by the container");
@@ -607,6 +655,43 @@ mod tests {
             assert_eq!((status.passes, status.truncated), (d.passes, d.truncated));
         }
         assert_eq!(values, c.quantized);
+    }
+
+    /// The base values' low bits arrive with the passes of their weight:
+    /// after `p` passes each is within half the weight of its first unknown
+    /// bit of the true level-0 value (what the version 2 base section held
+    /// whole), a bound that halves with every pass that carries base bits.
+    /// (One value can move away: one at the centre of its interval is off
+    /// by a quarter of it once the next bit is known.)
+    #[test]
+    fn base_values_sharpen_pass_by_pass() {
+        let mesh = sphere(4);
+        let stream = compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
+        let front = EncodeOptions::DEFAULT.with_base(BasePlacement::Front);
+        let front = compress(&mesh, &front).unwrap();
+        assert!(stream.base_bytes < front.base_bytes);
+        let truth = container::read(&front.bytes, &Limits::DEFAULT)
+            .unwrap()
+            .base
+            .values;
+        let decoder = Decoder::new(&stream.bytes, &Limits::DEFAULT).unwrap();
+        let (h, k) = (decoder.header(), decoder.header().stream_params().base_bits);
+        let s0 = h.stream_params().weighting.base_shift(h.level as u32);
+        assert!(k > 3 && k <= h.planes as u32 - s0, "{k} base bits");
+        let stream_bytes = &stream.bytes[decoder.stream_start()..];
+        let mut values = Vec::new();
+        let mut worst = i32::MAX;
+        for p in 0..=h.planes as u32 {
+            decoder.decode_into(stream_bytes, Some(p), Some(0), &mut values);
+            worst = (values.iter().zip(&truth))
+                .flat_map(|(v, t)| (0..3).map(move |c| (v[c] - t[c]).abs()))
+                .max()
+                .unwrap();
+            let unknown = (h.planes as u32 - p).saturating_sub(s0).min(k);
+            assert!(worst <= (1 << unknown) / 2, "pass {p}: off by {worst}");
+            assert!(p > 0 || worst > 1 << (k - 3), "pass 0 knows no low bit");
+        }
+        assert_eq!(worst, 0);
     }
 
     #[test]

@@ -8,7 +8,7 @@
 //! | `H` | [`Header`], bincode (standard configuration: varints) |
 //! | 4 | CRC-32 of everything above |
 //! | 4 | base section length `B`, little endian |
-//! | `B` | base mesh: face corners, then the level-0 scaling values, predicted and arithmetic-coded (see `basecode`; version 1: bincode, delta-coded) |
+//! | `B` | base mesh: face corners, then the level-0 scaling values, predicted and arithmetic-coded (see `basecode`; version 1: bincode, delta-coded; version 3: without their low bits, which are in the stream) |
 //! | 4 | CRC-32 of the base section |
 //! | rest | the embedded EZW stream, to the end of the data |
 //!
@@ -23,8 +23,11 @@ use crate::{Error, Result, basecode};
 /// Magic bytes at the start of every `.qm` file.
 pub const MAGIC: [u8; 4] = [0x89, b'Q', b'M', b'\n'];
 
-/// The container version this build writes.
-pub const VERSION: u8 = 2;
+/// The container version this build writes by default. Version 3 moved the
+/// low bits of the base values into the embedded stream
+/// (how many: [`Header::flags`]); the encoder still writes version 2,
+/// all of them in the base section, on request.
+pub const VERSION: u8 = 3;
 
 /// Largest [`Header::frames`]: parent-quad normals from level
 /// `MAX_LEVEL + 1` on, that is never.
@@ -43,6 +46,10 @@ pub const OLDEST_VERSION: u8 = 1;
 /// Everything a decoder needs besides the base mesh and the stream.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Header {
+    /// Container version: the byte before the header, not part of it
+    /// (2 and 3 share the header's fields).
+    #[serde(skip)]
+    pub version: u8,
     /// Quantization bits per coordinate.
     pub bits: u8,
     /// Subdivision levels above the base mesh.
@@ -69,9 +76,14 @@ pub struct Header {
     pub planes: u8,
     /// Passes the stream holds (at most `planes`).
     pub passes: u8,
-    /// Reserved, zero.
+    /// Version 3: the low bits of each base value the stream carries
+    /// ([`qm_ezw::StreamParams::base_bits`]) in bits 0 to 4; the other bits
+    /// (all of them before version 3) are reserved, zero.
     pub flags: u32,
 }
+
+/// The flags' bits that hold the base bits in the stream (version 3).
+pub const BASE_BITS_MASK: u32 = 0x1f;
 
 impl Header {
     /// The first level whose frames use parent-quad normals, `None` for
@@ -82,13 +94,20 @@ impl Header {
 
     /// What the bit-plane decoder must be told about the stream.
     pub fn stream_params(&self) -> qm_ezw::StreamParams {
+        let weighting = qm_ezw::Weighting {
+            bits_per_level: self.weight_bits as u32,
+            normal_bits: self.normal_bits as u32,
+        };
+        let base_bits = if self.version >= 3 {
+            self.flags & BASE_BITS_MASK
+        } else {
+            0
+        };
         qm_ezw::StreamParams {
             planes: self.planes as u32,
             passes: self.passes as u32,
-            weighting: qm_ezw::Weighting {
-                bits_per_level: self.weight_bits as u32,
-                normal_bits: self.normal_bits as u32,
-            },
+            weighting,
+            base_bits,
         }
     }
 }
@@ -112,6 +131,7 @@ struct HeaderV1 {
 impl From<HeaderV1> for Header {
     fn from(h: HeaderV1) -> Header {
         Header {
+            version: 1,
             bits: h.bits,
             level: h.level,
             update: h.update,
@@ -130,13 +150,17 @@ impl From<HeaderV1> for Header {
 }
 
 /// The base mesh as stored: corners of each face, then the level-0 scaling
-/// value of each base vertex.
+/// value of each base vertex without its low bits.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct BaseSection {
     /// Counter-clockwise corners of each base face.
     pub faces: Vec<[u32; 4]>,
-    /// Quantized level-0 values, one per base vertex.
+    /// Quantized level-0 values, one per base vertex, shifted right
+    /// (arithmetically) by `low_bits`.
     pub values: Vec<[i32; 3]>,
+    /// Low bits of each value that are in the stream instead
+    /// ([`qm_ezw::StreamParams::base_bits`]; 0 before version 3).
+    pub low_bits: u32,
 }
 
 /// The version 1 base section.
@@ -165,15 +189,24 @@ fn config() -> bincode::config::Configuration {
     bincode::config::standard()
 }
 
-/// Writes a complete container.
+/// Writes a complete container of version `header.version` (2 or 3).
 pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u8>> {
+    let low_bits = header.stream_params().base_bits;
+    if !(2..=VERSION).contains(&header.version) || base.low_bits != low_bits {
+        return Err(Error::Malformed {
+            what: format!(
+                "version {} with {} low base bits in the stream ({low_bits} expected)",
+                header.version, base.low_bits
+            ),
+        });
+    }
     let header_bytes =
         bincode::serde::encode_to_vec(header, config()).map_err(|e| Error::Malformed {
             what: e.to_string(),
         })?;
     let mut out = Vec::with_capacity(64 + stream.len());
     out.extend_from_slice(&MAGIC);
-    out.push(VERSION);
+    out.push(header.version);
     out.extend_from_slice(&(header_bytes.len() as u16).to_le_bytes());
     out.extend_from_slice(&header_bytes);
     out.extend_from_slice(&crc32fast::hash(&out).to_le_bytes());
@@ -270,7 +303,10 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
     let header: Header = if version == 1 {
         decode_exact::<HeaderV1>(header_raw, "header")?.into()
     } else {
-        decode_exact(header_raw, "header")?
+        Header {
+            version,
+            ..decode_exact(header_raw, "header")?
+        }
     };
     let header_bytes = 7 + header_len + 4;
     check_header(&header, limits)?;
@@ -301,10 +337,12 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
     let base = if version == 1 {
         read_base_v1(base_raw, &header)?
     } else {
+        let low_bits = header.stream_params().base_bits;
         basecode::decode(
             base_raw,
             header.base_faces as usize,
             header.base_vertices as usize,
+            low_bits,
         )
         .map_err(|problem| Error::Malformed {
             what: format!("base mesh: {problem}"),
@@ -348,6 +386,7 @@ fn read_base_v1(raw: &[u8], header: &Header) -> Result<BaseSection> {
     Ok(BaseSection {
         faces: stored.faces,
         values,
+        low_bits: 0,
     })
 }
 
@@ -423,10 +462,25 @@ fn check_header(h: &Header, limits: &Limits) -> Result<()> {
             what: format!("{} passes of {} planes", h.passes, h.planes),
         });
     }
-    if h.flags != 0 {
+    let known = if h.version >= 3 { BASE_BITS_MASK } else { 0 };
+    if h.flags & !known != 0 {
         return Err(Error::Malformed {
-            what: format!("unknown header flags {:#x}", h.flags),
+            what: format!("unknown header flags {:#x}", h.flags & !known),
         });
+    }
+    if h.version >= 3 {
+        let params = h.stream_params();
+        let most = params
+            .weighting
+            .max_base_bits(h.planes as u32, h.level as u32);
+        if params.base_bits > most {
+            return Err(Error::Malformed {
+                what: format!(
+                    "{} low base bits in the stream, which has planes for {most}",
+                    params.base_bits
+                ),
+            });
+        }
     }
     if !(h.step.is_finite() && h.step > 0.0 && h.origin.iter().all(|x| x.is_finite())) {
         return Err(Error::Malformed {
@@ -446,6 +500,7 @@ mod tests {
 
     fn sample() -> (Header, BaseSection) {
         let header = Header {
+            version: VERSION,
             bits: 12,
             level: 3,
             update: 2,
@@ -458,13 +513,55 @@ mod tests {
             base_faces: 1,
             planes: 14,
             passes: 14,
-            flags: 0,
+            flags: 10,
         };
+        // 14 planes at level 3 leave room for the low 10 bits in the
+        // stream; the flags say it holds them all.
+        let low_bits = header.stream_params().base_bits;
+        assert_eq!(low_bits, 10);
+        let values = [[0, 0, 0], [4095, 0, 7], [4095, 4095, -3], [0, 4095, 9]];
         let base = BaseSection {
             faces: vec![[0, 1, 2, 3]],
-            values: vec![[0, 0, 0], [4095, 0, 7], [4095, 4095, -3], [0, 4095, 9]],
+            values: values.map(|v| v.map(|x| x >> low_bits)).to_vec(),
+            low_bits,
         };
         (header, base)
+    }
+
+    /// Version 2 is still written on request, all base bits in the base
+    /// section; the version must match the base section's low bits.
+    #[test]
+    fn version_2_round_trip() {
+        let (mut header, mut base) = sample();
+        header.version = 2;
+        assert!(write(&header, &base, b"").is_err());
+        header.flags = 0;
+        base.low_bits = 0;
+        base.values = vec![[0, 0, 0], [4095, 0, 7], [4095, 4095, -3], [0, 4095, 9]];
+        let bytes = write(&header, &base, b"s").unwrap();
+        assert_eq!(bytes[4], 2);
+        let c = read(&bytes, &Limits::DEFAULT).unwrap();
+        assert_eq!(
+            (c.header, c.base, c.stream),
+            (header.clone(), base.clone(), &b"s"[..])
+        );
+        header.version = 1;
+        assert!(write(&header, &base, b"").is_err());
+    }
+
+    /// A high part whose value with its low bits would leave 32 bits is
+    /// refused.
+    #[test]
+    fn base_high_parts_out_of_range_are_refused() {
+        let (header, mut base) = sample();
+        base.values[2][1] = i32::MAX >> 10;
+        assert!(read(&write(&header, &base, b"").unwrap(), &Limits::DEFAULT).is_ok());
+        base.values[2][1] = (i32::MAX >> 10) + 1;
+        let bytes = write(&header, &base, b"").unwrap();
+        match read(&bytes, &Limits::DEFAULT) {
+            Err(Error::Malformed { what }) => assert!(what.contains("out of range"), "{what}"),
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]
@@ -517,11 +614,30 @@ mod tests {
         ));
     }
 
+    /// More base bits in the stream than it has planes for, or unknown
+    /// flags, are refused with what is wrong.
+    #[test]
+    fn impossible_base_bits_and_unknown_flags_are_refused() {
+        let (mut header, base) = sample();
+        for (flags, expect) in [(11, "planes for 10"), (0x20 | 10, "flags 0x20")] {
+            header.flags = flags;
+            let mut base = base.clone();
+            base.low_bits = header.stream_params().base_bits;
+            let bytes = write(&header, &base, b"").unwrap();
+            match read(&bytes, &Limits::DEFAULT) {
+                Err(Error::Malformed { what }) => assert!(what.contains(expect), "{what}"),
+                other => panic!("flags {flags:#x}: {other:?}"),
+            }
+        }
+    }
+
     #[test]
     fn absurd_sizes_are_refused() {
-        let (mut header, base) = sample();
+        let (mut header, mut base) = sample();
         header.level = 12;
         header.base_faces = 1 << 20;
+        header.flags = 0;
+        base.low_bits = header.stream_params().base_bits;
         let bytes = write(&header, &base, b"").unwrap();
         assert!(matches!(
             read(&bytes, &Limits::DEFAULT),

@@ -17,8 +17,8 @@ pub mod mesh;
 mod polymesh;
 
 pub use codec::{
-    Compressed, DecodeOptions, DecodeStatus, Decoder, Decompressed, EncodeOptions, Frames,
-    compress, decompress,
+    BasePlacement, Compressed, DecodeOptions, DecodeStatus, Decoder, Decompressed, EncodeOptions,
+    Frames, compress, decompress,
 };
 pub use container::Limits;
 pub use error::{Error, Result};

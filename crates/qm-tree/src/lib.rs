@@ -50,6 +50,7 @@ pub struct ZeroTree {
     child_counts: Vec<u8>,
     level_starts: Vec<usize>,
     max_level: u32,
+    base_vertices: usize,
 }
 
 impl ZeroTree {
@@ -74,6 +75,7 @@ impl ZeroTree {
                 child_counts: Vec::new(),
                 level_starts: vec![0],
                 max_level: big_l,
+                base_vertices: base.vertex_count() as usize,
             };
         }
         // Every array has one entry per node: filled in place, not pushed.
@@ -86,6 +88,7 @@ impl ZeroTree {
             child_counts: vec![0; count],
             level_starts: vec![0],
             max_level: big_l,
+            base_vertices: base.vertex_count() as usize,
         };
         // Grid position of each node: face, then `x | y << 16`.
         let mut at: Vec<(u32, u32)> = Vec::with_capacity(count);
@@ -262,6 +265,12 @@ impl ZeroTree {
     /// Finest level `L`.
     pub fn max_level(&self) -> u32 {
         self.max_level
+    }
+
+    /// Number of base vertices: the level-0 values, which are not nodes
+    /// (sample ids `0..base_vertices`).
+    pub fn base_vertices(&self) -> usize {
+        self.base_vertices
     }
 
     /// Node range of level `l` (1 ..= L).
