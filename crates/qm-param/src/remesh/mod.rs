@@ -23,6 +23,7 @@
 //! unglued, so no surface is added.
 
 mod cut;
+mod lu;
 mod normal;
 mod resample;
 mod square;
@@ -262,38 +263,62 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
             }
         }
     }
-    // Sample and stitch every component, then join them.
-    let mut faces = Vec::new();
-    let mut grids = Vec::new();
-    let mut positions: Vec<DVec3> = Vec::new();
-    let mut base_vertices = 0u32;
-    let mut reports = Vec::new();
-    for ((disk, map, cuts, _), component) in charts.iter().zip(&cleaned.components) {
-        let patch = resample::resample(disk, map, level, options.fit_rounds);
-        let (bo, so) = (base_vertices, positions.len() as u32);
-        faces.extend(patch.faces.iter().map(|f| f.map(|v| v + bo)));
-        grids.extend(patch.grids.iter().map(|&s| s + so));
-        positions.extend_from_slice(&patch.positions);
-        base_vertices += patch.base_vertices;
-        reports.push(ComponentReport {
-            vertices: component.positions.len(),
-            triangles: component.triangles.len(),
-            base_quads: map.k * map.k,
-            extra_cuts: *cuts,
-            stretch: map.stretch,
-            flipped: map.flipped,
-            uncovered: patch.uncovered,
-        });
-    }
-    let base = BaseMesh::new(base_vertices, faces)
-        .map_err(|e| Error::Remesh(format!("the glued base mesh is invalid: {e}")))?;
-    let layout = Layout::new(base, level)?;
-    let (mut mesh, _) = SemiRegularMesh::from_face_grids(layout, &grids, &positions)?;
+    // Sample and stitch every component, then join them; meanwhile, the
+    // input surface for normal placement is built.
+    let sample = || -> Result<_> {
+        let mut faces = Vec::new();
+        let mut grids = Vec::new();
+        let mut positions: Vec<DVec3> = Vec::new();
+        // The surface triangle each sample was sampled from (the components'
+        // triangles one after the other, as in `surface::Surface`).
+        let mut triangles: Vec<u32> = Vec::new();
+        let mut first_triangle = 0u32;
+        let mut base_vertices = 0u32;
+        let mut reports = Vec::new();
+        for ((disk, map, cuts, _), component) in charts.iter().zip(&cleaned.components) {
+            let patch = resample::resample(disk, map, level, options.fit_rounds);
+            let (bo, so) = (base_vertices, positions.len() as u32);
+            faces.extend(patch.faces.iter().map(|f| f.map(|v| v + bo)));
+            grids.extend(patch.grids.iter().map(|&s| s + so));
+            positions.extend_from_slice(&patch.positions);
+            triangles.extend(patch.triangles.iter().map(|&t| t + first_triangle));
+            first_triangle += component.triangles.len() as u32;
+            base_vertices += patch.base_vertices;
+            reports.push(ComponentReport {
+                vertices: component.positions.len(),
+                triangles: component.triangles.len(),
+                base_quads: map.k * map.k,
+                extra_cuts: *cuts,
+                stretch: map.stretch,
+                flipped: map.flipped,
+                uncovered: patch.uncovered,
+            });
+        }
+        let base = BaseMesh::new(base_vertices, faces)
+            .map_err(|e| Error::Remesh(format!("the glued base mesh is invalid: {e}")))?;
+        let layout = Layout::new(base, level)?;
+        let (mesh, source) = SemiRegularMesh::from_face_grids(layout, &grids, &positions)?;
+        // Per sample of the layout.
+        let triangles: Vec<u32> = source.iter().map(|&v| triangles[v as usize]).collect();
+        Ok((mesh, triangles, reports))
+    };
+    let (sampled, surface) = rayon::join(sample, || {
+        options
+            .normal
+            .then(|| surface::Surface::new(&cleaned.components))
+    });
+    let (mut mesh, triangles, reports) = sampled?;
     let mut normal_report = None;
-    if options.normal {
-        let surface = surface::Surface::new(&cleaned.components)?;
+    if let Some(surface) = surface {
+        let surface = surface?;
         let (layout, mut positions) = mesh.into_parts();
-        let placed = normal::place(&layout, &mut positions, &surface, options.fit_rounds);
+        let placed = normal::place(
+            &layout,
+            &mut positions,
+            &triangles,
+            &surface,
+            options.fit_rounds,
+        );
         normal_report = Some(NormalReport {
             moved: placed.moved,
             kept: placed.kept,

@@ -34,15 +34,27 @@
 //! so that the details stay normal: the fit of the parameterized samples no
 //! longer applies once they have slid.
 //!
-//! The fit asks for the closest surface point of four quadrature nodes per
-//! sample in every round. The hierarchy answered those in 2.5 s of the
-//! bunny's 3.5 s of placement (idle machine); they are now walked to over
-//! the mesh from the triangles of the node's corners (module `surface`), in
-//! 0.57 s, with the same remesh PSNR to 0.003 dB on the bunny and
-//! cheburashka. The samples' own closest
-//! points and the rays still ask the hierarchy: a walk from a neighbouring
-//! sample can stop on the wrong sheet of a concave junction (cheburashka's
-//! ears against its head fell to 56.6 dB that way).
+//! The placement asks for the closest surface points of the samples, of
+//! four quadrature nodes per sample in every round of the fit, and for a
+//! ray per odd sample. Module `surface` walks to most answers over the mesh
+//! from a triangle nearby: the samples' own from the triangle each was
+//! sampled from (module `resample` records it), the nodes' from their
+//! corners' (then each from its own of the last round), the rays' from the
+//! triangles around the prediction, within the ray's reach. Walking from a
+//! *neighbouring* sample's triangle instead stopped on the wrong sheet of
+//! concave junctions (cheburashka's ears against its head fell to 56.6 dB
+//! that way); from the sample's own, the walks found the hierarchy's
+//! closest points on all six development models (ties between the two
+//! triangles of an edge aside). Only the kept samples' closest points, long
+//! rays and rays that meet no triangle nearby ask parry's hierarchy: where
+//! a kept sample's closest point lies on an edge, the triangle whose normal
+//! puts it back on its offset surface matters (walking those too cost
+//! spot's remesh 0.011 dB), and five of their walks on fandisk and
+//! cheburashka ended on a farther sheet. On the bunny (idle machine,
+//! medians of 3), the placement adds 0.63 s to the remesher's 0.80 s. Run
+//! back to back, the version before (the hierarchy answering the samples'
+//! closest points and the rays, the walks without their shortcuts) added
+//! 1.37 s to 1.20 s.
 //!
 //! What the bounds are for, measured with `cargo xtask details` (remesh
 //! PSNR, lossless bytes at the default encoder): with every ray hit
@@ -97,10 +109,12 @@ pub(super) struct Placed {
 /// sample lies on the ray from its prediction along the codec's frame
 /// normal where that is safe, then fits them along their rays in
 /// `fit_rounds` rounds (see the module docs). `positions` are the samples,
-/// indexed by sample id.
+/// indexed by sample id, and `sampled` the surface triangle each was
+/// sampled from before the fit moved it.
 pub(super) fn place(
     layout: &Layout,
     positions: &mut [DVec3],
+    sampled: &[u32],
     surface: &Surface,
     fit_rounds: usize,
 ) -> Placed {
@@ -109,36 +123,50 @@ pub(super) fn place(
         return placed;
     };
     let original = positions.to_vec();
-    let original_grid = quantizer.quantize_all(&original);
+    let lifting = Lifting::new(layout, UpdateRule::None);
     // Where the fit put each sample, relative to the surface (signed
     // distance, positive on the side the closest triangle faces), and that
-    // triangle: the walks of the queries below start there.
-    let (offsets, mut triangles): (Vec<f64>, Vec<u32>) = original
-        .par_iter()
-        .map(|&p| {
-            let foot = surface.closest(p);
-            let offset = (p - foot.point).dot(surface.normal(foot.triangle));
-            (offset, foot.triangle)
-        })
-        .unzip();
+    // triangle: the walks of the queries below start there. Meanwhile, each
+    // sample's prediction from the fitted coarser samples, all levels in
+    // one grid: finest first, as predicting a level reads only the coarser
+    // samples and overwrites only its odd ones.
+    let ((offsets, mut triangles), before): ((Vec<f64>, Vec<u32>), Vec<Coord>) = rayon::join(
+        || {
+            original
+                .par_iter()
+                .zip(sampled)
+                .map(|(&p, &t)| {
+                    let foot = surface.closest_near(p, t);
+                    let offset = (p - foot.point).dot(surface.normal(foot.triangle));
+                    (offset, foot.triangle)
+                })
+                .unzip()
+        },
+        || {
+            let mut before = quantizer.quantize_all(&original);
+            for level in (1..=layout.level()).rev() {
+                lifting.predict(level, &mut before);
+            }
+            before
+        },
+    );
     // The direction each sample is fitted along: its ray; the base vertices,
     // which have no ray, along the surface normal.
     let mut directions = vec![DVec3::ZERO; positions.len()];
     for v in 0..layout.base().vertex_count() as usize {
         directions[v] = surface.normal(triangles[v]);
     }
-    let lifting = Lifting::new(layout, UpdateRule::None);
     let mut spacing = vec![0.0; positions.len()];
-    // The samples on the grid, as placed so far and as the fit left them.
-    // Predicting a level overwrites its odd samples only, with values from
-    // the coarser ones; once they are placed, they are put back.
+    // The samples on the grid as placed so far. Predicting a level
+    // overwrites its odd samples only, with values from the coarser ones;
+    // once they are placed, they are put in.
     let mut now = quantizer.quantize_all(positions);
-    let mut before = original_grid.clone();
     for level in 1..=layout.level() {
         lifting.predict(level, &mut now);
-        lifting.predict(level, &mut before);
-        let normals = frames::normals(layout, level, &now, frames::PARENTS_FROM);
-        spacings(layout, level, positions, &mut spacing);
+        let (normals, ()) = rayon::join(
+            || frames::normals(layout, level, &now, frames::PARENTS_FROM),
+            || spacings(layout, level, positions, &mut spacing),
+        );
         let moves: Vec<(bool, DVec3, DVec3, u32)> = normals
             .par_iter()
             .map(|&(id, normal)| {
@@ -151,6 +179,12 @@ pub(super) fn place(
                 let r = p + (original[id] - at(&before));
                 let n = DVec3::from(normal.map(|c| c as f64)).normalize_or_zero();
                 let keep = || {
+                    // From the hierarchy: a walk from the sample's triangle
+                    // mostly agrees, but where the closest point lies on an
+                    // edge it may pick the other triangle, whose normal
+                    // puts the sample back on its offset elsewhere (spot's
+                    // remesh lost 0.011 dB so), and a few ended on a
+                    // farther sheet.
                     let foot = surface.closest(r);
                     let face = surface.normal(foot.triangle);
                     let y = r - ((r - foot.point).dot(face) - offsets[id]) * face;
@@ -167,7 +201,7 @@ pub(super) fn place(
                     return keep();
                 }
                 let reach = REACH * detail + 0.25 * h;
-                let Some((t, hit)) = surface.hit(p, n, reach, FACING) else {
+                let Some((t, hit)) = surface.hit_near(p, n, reach, FACING, triangles[id]) else {
                     return keep();
                 };
                 let face = surface.normal(hit);
@@ -182,7 +216,6 @@ pub(super) fn place(
             .collect();
         for (&(id, _), (moved, y, n, t)) in normals.iter().zip(moves) {
             now[id as usize] = quantizer.quantize(y);
-            before[id as usize] = original_grid[id as usize];
             positions[id as usize] = y;
             directions[id as usize] = n;
             triangles[id as usize] = t;

@@ -25,6 +25,10 @@ pub struct Patch {
     pub grids: Vec<u32>,
     /// Position of each local sample.
     pub positions: Vec<DVec3>,
+    /// The disk triangle each local sample was sampled from, before the
+    /// fit moved it (the disk keeps its mesh's triangle order, so this is
+    /// also the component's triangle).
+    pub triangles: Vec<u32>,
     /// Grid points no triangle covered (filled from a neighbour).
     pub uncovered: usize,
 }
@@ -62,7 +66,23 @@ pub fn resample(disk: &Disk, map: &SquareMap, level: u32, fit_rounds: usize) -> 
     let big_n = k * n;
     let side = big_n + 1;
     let at = |i: usize, j: usize| j * side + i;
-    let (positions, uncovered) = rasterize(disk, &map.uv, big_n);
+    // The fit needs the surface on the grid of twice the resolution, whose
+    // every other point is a point of this grid (the same point to the
+    // bit: the coordinates only double).
+    let (positions, triangles, uncovered, fine) = if fit_rounds > 0 {
+        let fine_side = 2 * big_n + 1;
+        let (mut fine, mut fine_covered, mut triangles) = rasterize(disk, &map.uv, 2 * big_n, 2);
+        let even = |g: usize| 2 * (g / side) * fine_side + 2 * (g % side);
+        let mut positions: Vec<DVec3> = (0..side * side).map(|g| fine[even(g)]).collect();
+        let mut covered: Vec<bool> = (0..side * side).map(|g| fine_covered[even(g)]).collect();
+        let uncovered = fill(&mut positions, &mut covered, Some(&mut triangles), side);
+        fill(&mut fine, &mut fine_covered, None, fine_side);
+        (positions, triangles, uncovered, fine)
+    } else {
+        let (mut positions, mut covered, mut triangles) = rasterize(disk, &map.uv, big_n, 1);
+        let uncovered = fill(&mut positions, &mut covered, Some(&mut triangles), side);
+        (positions, triangles, uncovered, Vec::new())
+    };
 
     // Glue mates along the perimeter.
     let perimeter = |p: usize| {
@@ -92,18 +112,20 @@ pub fn resample(disk: &Disk, map: &SquareMap, level: u32, fit_rounds: usize) -> 
     // Compact ids: samples, and separately the base vertices.
     let mut sample_id = vec![u32::MAX; side * side];
     let mut sample_positions = Vec::new();
+    let mut sample_triangles = Vec::new();
     for g in 0..side * side {
         let r = uf.find(g as u32) as usize;
         if sample_id[r] == u32::MAX {
             sample_id[r] = sample_positions.len() as u32;
             sample_positions.push(positions[r]);
+            sample_triangles.push(triangles[r]);
         }
         sample_id[g] = sample_id[r];
     }
     if fit_rounds > 0 {
-        let (fine, _) = rasterize(disk, &map.uv, 2 * big_n);
         fit(&mut sample_positions, &sample_id, &fine, big_n, fit_rounds);
     }
+    drop(fine);
     let mut base_id = vec![u32::MAX; side * side];
     let mut base_vertices = 0u32;
     let mut base = |i: usize, j: usize, uf: &mut UnionFind| {
@@ -136,29 +158,41 @@ pub fn resample(disk: &Disk, map: &SquareMap, level: u32, fit_rounds: usize) -> 
         base_vertices,
         grids,
         positions: sample_positions,
+        triangles: sample_triangles,
         uncovered,
     }
 }
 
 /// The surface point mapped to each point of the `(n + 1)^2` grid over the
-/// square (row-major), and how many grid points no triangle covered (those
-/// copy the nearest covered point).
-fn rasterize(disk: &Disk, uv: &[DVec2], n: usize) -> (Vec<DVec3>, usize) {
+/// square (row-major), whether a triangle covered it, and the disk triangle
+/// of every `step`-th point of every `step`-th row (a `(n / step + 1)^2`
+/// grid). Points no triangle covered are left for [`fill`].
+fn rasterize(
+    disk: &Disk,
+    uv: &[DVec2],
+    n: usize,
+    step: usize,
+) -> (Vec<DVec3>, Vec<bool>, Vec<u32>) {
     let side = n + 1;
-    let at = |i: usize, j: usize| j * side + i;
+    let coarse_side = n / step + 1;
     let mut positions = vec![DVec3::ZERO; side * side];
     let mut covered = vec![false; side * side];
+    let mut triangles = vec![0u32; coarse_side * coarse_side];
     // Bands of rows in parallel, each going through the triangles in order:
     // a grid point takes the first triangle that covers it, as in one pass.
-    let rows = side.div_ceil(16);
+    // Bands of whole `step`-th rows, so that each has its own triangles.
+    let rows = side.div_ceil(16).next_multiple_of(step);
+    let mut bands: Vec<&mut [u32]> = triangles.chunks_mut(rows / step * coarse_side).collect();
+    bands.resize_with(side.div_ceil(rows), Default::default);
     positions
         .par_chunks_mut(rows * side)
         .zip(covered.par_chunks_mut(rows * side))
+        .zip(bands)
         .enumerate()
-        .for_each(|(band, (positions, covered))| {
+        .for_each(|(band, ((positions, covered), triangles))| {
             let first = band * rows;
             let last = first + positions.len() / side - 1;
-            for t in &disk.triangles {
+            for (index, t) in disk.triangles.iter().enumerate() {
                 let q: [DVec2; 3] = t.map(|v| uv[v as usize] * n as f64);
                 let lo = q[0].min(q[1]).min(q[2]);
                 let hi = q[0].max(q[1]).max(q[2]);
@@ -174,7 +208,8 @@ fn rasterize(disk: &Disk, uv: &[DVec2], n: usize) -> (Vec<DVec3>, usize) {
                 let p: [DVec3; 3] = t.map(|v| disk.positions[v as usize]);
                 let i0 = lo.x.floor().max(0.0) as usize;
                 let i1 = (hi.x.ceil() as usize).min(n);
-                let eps = -1e-9 * area.abs().max(1.0);
+                // In units of the coarse grid, the same at its points.
+                let eps = -1e-9 * area.abs().max((step * step) as f64);
                 for j in j0.max(first)..=j1.min(last) {
                     for i in i0..=i1 {
                         let g = (j - first) * side + i;
@@ -189,12 +224,28 @@ fn rasterize(disk: &Disk, uv: &[DVec2], n: usize) -> (Vec<DVec3>, usize) {
                             let s = l0 + l1 + l2;
                             positions[g] = (p[0] * l0 + p[1] * l1 + p[2] * l2) / s;
                             covered[g] = true;
+                            if i % step == 0 && j % step == 0 {
+                                triangles[(j - first) / step * coarse_side + i / step] =
+                                    index as u32;
+                            }
                         }
                     }
                 }
             }
         });
-    // Numerical gaps: copy the nearest covered neighbour, growing outward.
+    (positions, covered, triangles)
+}
+
+/// Fills the points of a `side^2` grid that no triangle covered (numerical
+/// gaps) from the nearest covered one, growing outward, with its triangle
+/// if given; returns how many there were.
+fn fill(
+    positions: &mut [DVec3],
+    covered: &mut [bool],
+    mut triangles: Option<&mut [u32]>,
+    side: usize,
+) -> usize {
+    let at = |i: usize, j: usize| j * side + i;
     let uncovered = covered.iter().filter(|&&c| !c).count();
     if uncovered > 0 && uncovered < covered.len() {
         let mut frontier: Vec<usize> = (0..covered.len()).filter(|&g| covered[g]).collect();
@@ -212,6 +263,9 @@ fn rasterize(disk: &Disk, uv: &[DVec2], n: usize) -> (Vec<DVec3>, usize) {
                     if a < side && b < side && !covered[at(a, b)] {
                         covered[at(a, b)] = true;
                         positions[at(a, b)] = positions[g];
+                        if let Some(triangles) = triangles.as_deref_mut() {
+                            triangles[at(a, b)] = triangles[g];
+                        }
                         next.push(at(a, b));
                     }
                 }
@@ -219,7 +273,7 @@ fn rasterize(disk: &Disk, uv: &[DVec2], n: usize) -> (Vec<DVec3>, usize) {
             frontier = next;
         }
     }
-    (positions, uncovered)
+    uncovered
 }
 
 /// The quadrature of the fits along one axis of an `(n + 1)^2` grid, at
@@ -251,39 +305,88 @@ fn fit(positions: &mut [DVec3], id: &[u32], fine: &[DVec3], n: usize, rounds: us
     let side = n + 1;
     let fine_side = 2 * n + 1;
     let axis = |f: usize| quadrature_axis(n, f);
-    let mut num = vec![DVec3::ZERO; positions.len()];
-    let mut den = vec![0.0f64; positions.len()];
+    // Per grid point, its sums over the nodes around it; then per sample,
+    // at its first grid point, those of its other grid points (a glued
+    // sample's, along the cuts) added in grid order.
+    let mut sums = vec![(DVec3::ZERO, 0.0f64); side * side];
+    let mut first = vec![u32::MAX; positions.len()];
+    let mut others = Vec::new();
+    for (g, &s) in id.iter().enumerate() {
+        if first[s as usize] == u32::MAX {
+            first[s as usize] = g as u32;
+        } else {
+            others.push((first[s as usize], g as u32));
+        }
+    }
+    // Bands of grid rows in parallel, each node row's residuals computed
+    // once per band.
+    let rows = side.div_ceil(4 * rayon::current_num_threads()).max(1);
     for _ in 0..rounds {
-        num.fill(DVec3::ZERO);
-        den.fill(0.0);
-        for fj in 0..fine_side {
-            let (ys, wy, qy) = axis(fj);
+        let positions_now: &[DVec3] = positions;
+        // The residuals of node row `fj`, at every node of the row.
+        let residuals = |fj: usize, out: &mut Vec<DVec3>| {
+            out.clear();
+            let (ys, wy, _) = axis(fj);
             for fi in 0..fine_side {
-                let (xs, wx, qx) = axis(fi);
-                let mut corners = [(0u32, 0.0f64); 4];
+                let (xs, wx, _) = axis(fi);
                 let mut value = DVec3::ZERO;
-                for (c, corner) in corners.iter_mut().enumerate() {
+                for c in 0..4 {
                     let (a, b) = (c % 2, c / 2);
                     let s = id[ys[b] * side + xs[a]];
-                    let w = wx[a] * wy[b];
-                    *corner = (s, w);
-                    value += positions[s as usize] * w;
+                    value += positions_now[s as usize] * (wx[a] * wy[b]);
                 }
-                let residual = fine[fj * fine_side + fi] - value;
-                let q = qx * qy;
-                for (s, w) in corners {
-                    if w > 0.0 {
-                        num[s as usize] += residual * (w * q);
-                        den[s as usize] += w * q;
+                out.push(fine[fj * fine_side + fi] - value);
+            }
+        };
+        sums.par_chunks_mut(rows * side)
+            .enumerate()
+            .for_each(|(band, sums)| {
+                let first = band * rows;
+                let mut node_rows = [Vec::new(), Vec::new(), Vec::new()];
+                if first > 0 {
+                    residuals(2 * first - 1, &mut node_rows[2]);
+                }
+                for (j, sums) in (first..).zip(sums.chunks_mut(side)) {
+                    // Rows 2j - 1 (kept from the last grid row), 2j, 2j + 1.
+                    node_rows.swap(0, 2);
+                    residuals(2 * j, &mut node_rows[1]);
+                    if j < n {
+                        residuals(2 * j + 1, &mut node_rows[2]);
+                    }
+                    for (i, sum) in sums.iter_mut().enumerate() {
+                        // The nodes around grid point (i, j), in the order
+                        // the nodes come (the same sums, term by term, as
+                        // scattering node by node).
+                        let mut acc = (DVec3::ZERO, 0.0);
+                        let (i0, i1) = ((2 * i).saturating_sub(1), (2 * i + 1).min(2 * n));
+                        for fj in (2 * j).saturating_sub(1)..=(2 * j + 1).min(2 * n) {
+                            let (ys, wy, qy) = axis(fj);
+                            let b = usize::from(ys[0] != j);
+                            let row = &node_rows[fj + 1 - 2 * j];
+                            for (fi, &residual) in (i0..=i1).zip(&row[i0..=i1]) {
+                                let (xs, wx, qx) = axis(fi);
+                                let a = usize::from(xs[0] != i);
+                                let (w, q) = (wx[a] * wy[b], qx * qy);
+                                acc.0 += residual * (w * q);
+                                acc.1 += w * q;
+                            }
+                        }
+                        *sum = acc;
                     }
                 }
-            }
+            });
+        for &(to, from) in &others {
+            let (u, d) = sums[from as usize];
+            let sum = &mut sums[to as usize];
+            sum.0 += u;
+            sum.1 += d;
         }
-        for ((p, &u), &d) in positions.iter_mut().zip(&num).zip(&den) {
+        positions.par_iter_mut().zip(&first).for_each(|(p, &g)| {
+            let (u, d) = sums[g as usize];
             if d > 0.0 {
                 *p += u / d;
             }
-        }
+        });
     }
 }
 
@@ -325,5 +428,85 @@ mod tests {
         fit(&mut coarse, &id, &fine, n, 3);
         let after = misfit(&coarse, &fine, n);
         assert!(after < 0.5 * before, "misfit {before:e} -> {after:e}");
+    }
+
+    /// The fit as the normal equations read, node by node scattering its
+    /// residual to its corners (what `fit` gathers per grid point).
+    fn fit_by_nodes(positions: &mut [DVec3], id: &[u32], fine: &[DVec3], n: usize, rounds: usize) {
+        let (side, fine_side) = (n + 1, 2 * n + 1);
+        for _ in 0..rounds {
+            let mut num = vec![DVec3::ZERO; positions.len()];
+            let mut den = vec![0.0f64; positions.len()];
+            for fj in 0..fine_side {
+                let (ys, wy, qy) = quadrature_axis(n, fj);
+                for fi in 0..fine_side {
+                    let (xs, wx, qx) = quadrature_axis(n, fi);
+                    let corners: [(u32, f64); 4] = std::array::from_fn(|c| {
+                        let (a, b) = (c % 2, c / 2);
+                        (id[ys[b] * side + xs[a]], wx[a] * wy[b])
+                    });
+                    let mut value = DVec3::ZERO;
+                    for &(s, w) in &corners {
+                        value += positions[s as usize] * w;
+                    }
+                    let residual = fine[fj * fine_side + fi] - value;
+                    let q = qx * qy;
+                    for (s, w) in corners {
+                        if w > 0.0 {
+                            num[s as usize] += residual * (w * q);
+                            den[s as usize] += w * q;
+                        }
+                    }
+                }
+            }
+            for ((p, &u), &d) in positions.iter_mut().zip(&num).zip(&den) {
+                if d > 0.0 {
+                    *p += u / d;
+                }
+            }
+        }
+    }
+
+    /// Gathering per grid point in bands gives the scattered sums: the same
+    /// samples bit for bit where a sample is one grid point, to rounding
+    /// where it is glued from several (here the grid closed into a tube).
+    #[test]
+    fn fitting_by_grid_points_sums_what_the_nodes_scatter() {
+        let n = 12;
+        let side = n + 1;
+        let tube = |x: f64, y: f64| {
+            let a = std::f64::consts::TAU * x;
+            DVec3::new(a.cos(), a.sin(), y + 0.1 * (5.0 * a).sin())
+        };
+        let fine: Vec<DVec3> = (0..=2 * n)
+            .flat_map(|j| (0..=2 * n).map(move |i| (i, j)))
+            .map(|(i, j)| tube(i as f64 / (2 * n) as f64, j as f64 / (2 * n) as f64))
+            .collect();
+        // The last column is the first one again.
+        let id: Vec<u32> = (0..side * side)
+            .map(|g| {
+                let (i, j) = (g % side, g / side);
+                (j * n + i % n) as u32
+            })
+            .collect();
+        let mut gathered: Vec<DVec3> = (0..side * n)
+            .map(|s| tube((s % n) as f64 / n as f64, (s / n) as f64 / n as f64))
+            .collect();
+        let start = gathered.clone();
+        let mut scattered = gathered.clone();
+        fit(&mut gathered, &id, &fine, n, 3);
+        fit_by_nodes(&mut scattered, &id, &fine, n, 3);
+        for (s, (a, b)) in gathered.iter().zip(&scattered).enumerate() {
+            if s % n == 0 {
+                assert!(
+                    a.distance(*b) < 1e-14,
+                    "glued sample {s}: {a:?} against {b:?}"
+                );
+            } else {
+                assert_eq!(a, b, "sample {s}");
+            }
+        }
+        // The fit moved them.
+        assert!(gathered.iter().zip(&start).all(|(a, b)| a != b));
     }
 }

@@ -29,7 +29,6 @@ use faer::matrix_free::bicgstab::{BicgParams, bicgstab, bicgstab_scratch};
 use faer::matrix_free::{IdentityPrecond, LinOp, Precond};
 use faer::sparse::linalg::cholesky::LltRef;
 use faer::sparse::linalg::cholesky::{SymmetricOrdering, factorize_symbolic_cholesky};
-use faer::sparse::linalg::lu::{NumericLu, factorize_symbolic_lu};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, Mat, MatMut, MatRef, Par, Side};
 use qm_lift::glam::{DVec2, DVec3};
@@ -43,13 +42,13 @@ use crate::{Error, Result};
 /// development models and stops a 500k-vertex torus two solves earlier.
 const STRETCH_GAIN: f64 = 0.02;
 
-/// Systems with fewer unknowns are solved by a sparse LU; larger ones by
-/// BiCGSTAB with a Cholesky preconditioner (see [`System`]).
+/// Systems with fewer unknowns are solved by a sparse LU (module `lu`);
+/// larger ones by BiCGSTAB with a Cholesky preconditioner (see [`System`]).
 const LU_BELOW: usize = 100_000;
 
 /// A disk's symbolic factorization, of the kind its size asks for.
 pub enum Symbolic {
-    Lu(faer::sparse::linalg::lu::SymbolicLu<usize>),
+    Lu(super::lu::Symbolic),
     Cholesky(faer::sparse::linalg::cholesky::SymbolicCholesky<usize>),
 }
 
@@ -493,9 +492,11 @@ fn symmetrized(weights: &[Vec<(u32, f64)>]) -> Vec<Vec<(u32, f64)>> {
 /// `w_ij / (d_i d_j)`, whose symmetric part (`w` symmetrized) is a
 /// Dirichlet Laplacian, positive definite.
 ///
-/// Below [`LU_BELOW`] unknowns a sparse LU solves the system directly.
-/// Above, where the LU's COLAMD ordering and fill grow fast (about 4.7 s of
-/// symbolic and 2.75 s per factorization at 500k), the symmetric part's
+/// Below [`LU_BELOW`] unknowns a sparse LU solves the system directly,
+/// without pivoting (the matrix is an M-matrix) on the Cholesky structure
+/// of its symmetric pattern (module `lu`). Above (where faer's pivoting
+/// LU, used here before, took about 4.7 s of symbolic and 2.75 s per
+/// factorization at 500k), the symmetric part's
 /// sparse Cholesky factorization (AMD ordering, 0.78 s at 500k and a third
 /// of the memory) preconditions BiCGSTAB on the mean-value system itself,
 /// which converges in 3 to 13 iterations (the 500k torus, igea). The
@@ -523,9 +524,10 @@ struct System<'a> {
     /// Value position of each unknown's diagonal.
     diagonal: Vec<usize>,
     values: Vec<f64>,
-    /// Small systems: an LU of the mean-value system itself.
+    /// Small systems: an LU of the mean-value system itself, and its
+    /// factors.
     lu: bool,
-    numeric: NumericLu<usize, f64>,
+    numeric: super::lu::Numeric,
     /// Large ones: the Cholesky factor of its symmetric part, made from
     /// the symmetrized weights.
     factor: Vec<f64>,
@@ -593,7 +595,7 @@ impl<'a> System<'a> {
             slot,
             diagonal,
             lu,
-            numeric: NumericLu::new(),
+            numeric: Default::default(),
             factor: Vec::new(),
             symmetric: (!lu).then(|| symmetrized(weights)),
             scratch: None,
@@ -678,29 +680,14 @@ impl<'a> System<'a> {
         let mut rhs = self.fill(weights, |_, j| divisor[j], uv);
         let pattern =
             SymbolicSparseColMatRef::new_checked(free, free, &self.col_ptr, None, &self.row_idx);
-        let matrix = SparseColMatRef::new(pattern, &self.values);
-        let symbolic = self.symbolic(pattern, |p| {
-            factorize_symbolic_lu(p, Default::default()).map(Symbolic::Lu)
-        })?;
+        let symbolic = self.symbolic(pattern, |p| super::lu::Symbolic::new(p).map(Symbolic::Lu))?;
         let Symbolic::Lu(symbolic) = symbolic else {
             unreachable!("a disk's systems all have its size")
         };
-        let scratch = self.scratch.get_or_insert_with(|| {
-            MemBuffer::new(StackReq::any_of(&[
-                symbolic.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
-                symbolic.solve_in_place_scratch::<f64>(2, Par::Seq),
-            ]))
-        });
-        let lu = symbolic
-            .factorize_numeric_lu(
-                &mut self.numeric,
-                matrix,
-                Par::Seq,
-                MemStack::new(scratch),
-                Default::default(),
-            )
-            .map_err(|e| Error::Remesh(format!("factoring the parameterization: {e:?}")))?;
-        lu.solve_in_place_with_conj(Conj::No, rhs.as_mut(), Par::Seq, MemStack::new(scratch));
+        symbolic
+            .factorize(&self.values, &mut self.numeric)
+            .map_err(|i| Error::Remesh(format!("factoring the parameterization: pivot {i}")))?;
+        symbolic.solve(&self.numeric, rhs.as_mut());
         write_back(&self.index, &rhs, uv);
         Ok(())
     }
