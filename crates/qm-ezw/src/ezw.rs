@@ -13,18 +13,20 @@
 //! bytes over coding the three alike.
 //!
 //! **Base values.** The level-0 values (base vertex positions after
-//! lifting, world axes) weigh `s0 = bits_per_level * L` bits, as a level-0
-//! coefficient would, and no normal bits. Their low `k = planes - s0` bits
-//! (at most [`MAX_BASE_BITS`]) are those whose weighted plane `b + s0` is a
-//! pass of the stream: the stream can carry them ([`encode`] with `base`),
-//! and the caller stores only `value >> k`. Bit `b` of every base value is
-//! coded in the pass of plane `b + s0`, at its very start (level 0 is
-//! coarser than every detail level), vertex by vertex, with one adaptive
-//! context per coordinate and bit (they are close to even). A cut stream
-//! thus holds each base value to the precision of the details around it,
-//! instead of all of them exactly up front; unknown low bits are
-//! reconstructed at the centre of what is left, as unresolved coefficients
-//! are.
+//! lifting, world axes) weigh `s0 = bits_per_level * L + 1` bits: one more
+//! than a level-0 coefficient would, since a base value is a scaling
+//! function that moves its whole neighbourhood one way
+//! ([`BASE_EXTRA_BITS`]), and no normal bits. The stream can carry their low
+//! `k` bits ([`encode`] with [`BaseBits`]), at most those whose weighted
+//! plane `b + s0` is a pass (`planes - s0`, [`Weighting::max_base_bits`]),
+//! and the caller stores only `value >> k`; `qm-io` asks for the bits that
+//! are noise to its base prediction. Bit `b` of every base value is coded
+//! in the pass of plane `b + s0`, at its very start (level 0 is coarser than
+//! every detail level), vertex by vertex, with one adaptive context per
+//! coordinate and bit (they are close to even). A cut stream thus holds
+//! each base value to the precision of the details around it, instead of
+//! all of them exactly up front; unknown low bits are reconstructed at the
+//! centre of what is left, as unresolved coefficients are.
 //!
 //! **Passes.** Plane `P` runs from `T0 = floor(log2 max weighted |c|)` down
 //! to 0, one pass per plane (the paper's halving thresholds; its garbled T0
@@ -143,8 +145,9 @@ pub struct StreamParams {
     pub passes: u32,
     /// Level weighting.
     pub weighting: Weighting,
-    /// Low bits of each base value coded in the stream ([`Weighting::base_bits`]
-    /// of `planes`), or 0 when the base values are all elsewhere.
+    /// Low bits of each base value coded in the stream (at most
+    /// [`Weighting::max_base_bits`] of `planes`), or 0 when the base values
+    /// are all elsewhere.
     pub base_bits: u32,
 }
 

@@ -61,7 +61,7 @@ pub enum Frames {
     /// level on (3 to `MAX_LEVEL + 1`), from the level `l - 1` quads below.
     ParentsFrom(u32),
     /// Local frames, parents from level 3 or from level 4, whichever
-    /// stream's cuts come closer to the mesh (see [`AUTO_CUTS`]): costs a
+    /// stream's cuts come closer to the mesh (see `AUTO_CUTS`): costs a
     /// second encoding. Level 4 keeps more of the frames' gain on smooth
     /// models, level 3 is safer on dense scans, whose small, thin quads
     /// turn their normals a lot while the stream is cut.
