@@ -73,9 +73,15 @@ pub fn run(args: &[String]) -> Result<(), String> {
             .with_parent_frames_from(header.parent_frames_from())
             .forward(&mut data);
         let tree = ZeroTree::new(layout);
+        // The stream's own base bits, as the encoder chose them.
+        let base = qm::ezw::BaseBits {
+            values: &data[..layout.base().vertex_count() as usize],
+            most: header.stream_params().base_bits,
+        };
         let budgets = qm::ezw::bit_budget(
             &tree,
             &tree.gather(&data),
+            Some(base),
             header.stream_params().weighting,
             None,
         );
@@ -117,6 +123,7 @@ fn table(name: &str, passes: u32, db: f64, bytes: usize, b: &BitBudget) -> Strin
     b.sign.iter().for_each(&mut add);
     b.zerotree.iter().for_each(&mut add);
     b.refinement.iter().flatten().for_each(&mut add);
+    add(&b.base);
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -161,5 +168,6 @@ fn table(name: &str, passes: u32, db: f64, bytes: usize, b: &BitBudget) -> Strin
             );
         }
     }
+    row("base values' low bits".into(), &b.base);
     s
 }
