@@ -109,7 +109,15 @@ fn info_json_reports_the_layout() {
     assert!(v["passes"].as_u64().unwrap() > 10);
     assert_eq!(
         (&v["version"], &v["frames"], &v["normal_bits"]),
-        (&3.into(), &true.into(), &2.into())
+        (&4.into(), &true.into(), &2.into())
+    );
+    // The cube's stream dips inside passes: holds, ordered and apart.
+    let holds: Vec<[u64; 2]> = serde_json::from_value(v["holds"].clone()).unwrap();
+    assert!(!holds.is_empty());
+    assert!(
+        holds
+            .windows(2)
+            .all(|h| h[0][0] < h[0][1] && h[0][1] <= h[1][0])
     );
     // The cube's corners predict each other exactly: no noise bits to
     // move into the stream.
@@ -126,6 +134,7 @@ fn info_json_reports_the_layout() {
             "--bits",
             "12",
             "--no-frames",
+            "--no-holds",
         ],
         dir.path(),
     );
@@ -135,6 +144,11 @@ fn info_json_reports_the_layout() {
     assert_eq!(
         (&w["frames"], &w["normal_bits"], &w["parent_frames_from"]),
         (&false.into(), &0.into(), &serde_json::Value::Null)
+    );
+    // Without holds, a version 3 file.
+    assert_eq!(
+        (&w["version"], &w["holds"]),
+        (&3.into(), &serde_json::json!([]))
     );
     // A fixed frame source on request, written into the header.
     let fixed = |level: &str, output: &str| {

@@ -29,7 +29,8 @@ const BUDGETS: usize = 25;
 const USAGE: &str = "usage: cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--out FILE]\n  \
     SPEC: comma-separated frames=auto|off|LEVEL, normal=BITS, weight=BITS, update=none|paper|mean,\n  \
     remesh=normal|plain (with or without the remesher's normal placement),\n  \
-    level=L (remesh level), spv=N (remesh samples per input vertex), base=front|stream\n  \
+    level=L (remesh level), spv=N (remesh samples per input vertex), base=front|stream,\n  \
+    holds=on|off\n  \
     (A defaults to frames=off,normal=0, the version 1 coding; B to the defaults)";
 
 /// Parses a setting list into encoder and remesher options.
@@ -84,6 +85,11 @@ fn options(spec: &str) -> Result<(EncodeOptions, RemeshOptions), String> {
                 "front" => BasePlacement::Front,
                 "stream" => BasePlacement::Stream,
                 _ => return Err(format!("{item}: front or stream")),
+            }),
+            "holds" => o.with_holds(match value {
+                "on" => true,
+                "off" => false,
+                _ => return Err(format!("{item}: on or off")),
             }),
             _ => return Err(format!("{item}: unknown setting\n{USAGE}")),
         };
@@ -167,7 +173,9 @@ pub fn run(args: &[String]) -> Result<(), String> {
             (&oa, &prepared_a),
             (&ob, prepared_b.as_ref().unwrap_or(&prepared_a)),
         ] {
-            streams.push(qm::compress(&prepared.mesh, o).map_err(|e| at(e.to_string()))?);
+            streams.push(
+                qm::compress_against(&prepared.mesh, &input, o).map_err(|e| at(e.to_string()))?,
+            );
             // How far the semi-regular mesh itself is from the input.
             let layout = prepared.mesh.layout();
             let remeshed = qm::PolyMesh::from_faces(

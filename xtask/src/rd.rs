@@ -338,8 +338,8 @@ fn model(file: &Path, draco: Option<&Draco>, bar: &ProgressBar) -> Result<ModelR
     let prepared = qm::prepare(&input, &RemeshOptions::DEFAULT).map_err(|e| at(e.to_string()))?;
     let prepare_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let compressed =
-        qm::compress(&prepared.mesh, &EncodeOptions::DEFAULT).map_err(|e| at(e.to_string()))?;
+    let compressed = qm::compress_against(&prepared.mesh, &input, &EncodeOptions::DEFAULT)
+        .map_err(|e| at(e.to_string()))?;
     let encode_s = t.elapsed().as_secs_f64();
     bar.inc(1);
     let full = compressed.bytes.len();

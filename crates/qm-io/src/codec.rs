@@ -13,6 +13,7 @@ use qm_lift::glam::DVec3;
 use qm_lift::{BaseMesh, Coord, Layout, Lifting, Quantizer, SemiRegularMesh, UpdateRule};
 
 use crate::container::{self, BaseSection, Header, Limits};
+use crate::holds::{self, Probes};
 use crate::{Error, PolyMesh, Result, basecode};
 
 /// Default extra weight, in bits, of the normal component of the details.
@@ -37,16 +38,20 @@ pub struct EncodeOptions {
     pub frames: Frames,
     /// Where the base values' low bits go.
     pub base: BasePlacement,
+    /// Measure the stream at many cuts and write holds where a longer cut
+    /// would decode worse than a shorter one (see [`crate::holds`]).
+    pub holds: bool,
 }
 
 /// Where the encoder puts the low bits of the base (level-0) values.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BasePlacement {
-    /// All in the base section, before the stream (format version 2).
+    /// All in the base section, before the stream (format version 2, or
+    /// 4 with holds).
     Front,
     /// The low bits that are noise to the base section's prediction (see
     /// `basecode::noise_bits`), as many as have a pass, each at the start
-    /// of its pass (format version 3, the default; see
+    /// of its pass (format version 3, or 4 with holds; the default; see
     /// [`qm_ezw::Weighting::max_base_bits`]): a cut stream then needs only
     /// as much base precision as its details have.
     Stream,
@@ -88,6 +93,7 @@ impl EncodeOptions {
         weighting: Weighting::LEVELS.with_normal_bits(DEFAULT_NORMAL_BITS),
         frames: Frames::Auto,
         base: BasePlacement::Stream,
+        holds: true,
     };
 
     /// Sets the quantization bits.
@@ -137,6 +143,12 @@ impl EncodeOptions {
         self.base = base;
         self
     }
+
+    /// Turns holds on or off.
+    pub const fn with_holds(mut self, holds: bool) -> Self {
+        self.holds = holds;
+        self
+    }
 }
 
 impl Default for EncodeOptions {
@@ -162,8 +174,19 @@ pub struct Compressed {
     pub quantizer: Quantizer,
 }
 
-/// Compresses a semi-regular mesh.
+/// Compresses a semi-regular mesh; holds, if asked for, are measured
+/// against the mesh itself ([`Probes::on_surface`]).
 pub fn compress(mesh: &SemiRegularMesh, options: &EncodeOptions) -> Result<Compressed> {
+    compress_probed(mesh, options, None)
+}
+
+/// [`compress`], measuring the cuts for holds with `probes` (built from the
+/// input the semi-regular mesh was made from: [`Probes::new`]) instead.
+pub fn compress_probed(
+    mesh: &SemiRegularMesh,
+    options: &EncodeOptions,
+    probes: Option<&Probes>,
+) -> Result<Compressed> {
     for (what, value, max) in [
         ("weight bits per level", options.weighting.bits_per_level, 2),
         (
@@ -221,6 +244,18 @@ pub fn compress(mesh: &SemiRegularMesh, options: &EncodeOptions) -> Result<Compr
             }
         }
     };
+    if options.holds {
+        let own;
+        let probes = match probes {
+            Some(p) => p,
+            None => {
+                own = Probes::on_surface(mesh);
+                &own
+            }
+        };
+        let holds = holds::find(&compressed, probes);
+        compressed = with_holds(compressed, holds)?;
+    }
     if let Some(max) = options.max_bytes {
         let prefix = compressed.header_bytes + compressed.base_bytes;
         if max < prefix {
@@ -258,7 +293,7 @@ fn compress_with(
     let (version, in_stream) = match options.base {
         BasePlacement::Front => (2, None),
         BasePlacement::Stream => (
-            container::VERSION,
+            3, // version 4 only when holds are added (`with_holds`)
             Some(qm_ezw::BaseBits {
                 values,
                 most: basecode::noise_bits(base.faces(), values),
@@ -283,6 +318,7 @@ fn compress_with(
         planes: encoded.params.planes as u8,
         passes: encoded.params.passes as u8,
         flags: low_bits,
+        holds: Vec::new(),
     };
     let section = BaseSection {
         faces: base.faces().to_vec(),
@@ -302,6 +338,31 @@ fn compress_with(
         quantized: quantized.to_vec(),
         quantizer,
     })
+}
+
+/// `compressed` (without holds) rewritten with `holds` in a version 4
+/// header; unchanged if there are none.
+fn with_holds(compressed: Compressed, holds: Vec<[u32; 2]>) -> Result<Compressed> {
+    if holds.is_empty() {
+        return Ok(compressed);
+    }
+    let old_prefix = compressed.header_bytes + compressed.base_bytes;
+    let c = container::read(&compressed.bytes, &Limits::NONE)?;
+    let header = Header {
+        version: 4,
+        holds,
+        ..c.header
+    };
+    let bytes = container::write(&header, &c.base, c.stream)?;
+    let header_bytes = header_len(&bytes);
+    let shift = header_bytes - compressed.header_bytes;
+    Ok(Compressed {
+        pass_ends: (compressed.pass_ends.iter()).map(|e| e + shift).collect(),
+        header_bytes,
+        bytes,
+        ..compressed
+    })
+    .inspect(|c| debug_assert_eq!(c.header_bytes + c.base_bytes, old_prefix + shift))
 }
 
 /// Unit normal of the finest surface at every sample (the sum of its quads'
@@ -591,6 +652,7 @@ impl Decoder {
         resume: bool,
     ) -> DecodeStatus {
         let params = self.header.stream_params();
+        let stream = &stream[..self.header.hold_cut(stream.len())];
         let decoded = if resume {
             let from = self.checkpoint.take();
             let (decoded, checkpoint) =

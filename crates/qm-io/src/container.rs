@@ -5,7 +5,7 @@
 //! | 4 | magic `89 51 4D 0A` (`\x89QM\n`) |
 //! | 1 | format version ([`VERSION`]) |
 //! | 2 | header length `H`, little endian |
-//! | `H` | [`Header`], bincode (standard configuration: varints) |
+//! | `H` | [`Header`], bincode (standard configuration: varints); version 4: then its [`Header::holds`], bincode, each as the gap from the last hold's end and its length |
 //! | 4 | CRC-32 of everything above |
 //! | 4 | base section length `B`, little endian |
 //! | `B` | base mesh: face corners, then the level-0 scaling values, predicted and arithmetic-coded (see `basecode`; version 1: bincode, delta-coded; version 3: without their low bits, which are in the stream) |
@@ -23,11 +23,13 @@ use crate::{Error, Result, basecode};
 /// Magic bytes at the start of every `.qm` file.
 pub const MAGIC: [u8; 4] = [0x89, b'Q', b'M', b'\n'];
 
-/// The container version this build writes by default. Version 3 moved the
+/// The newest container version this build writes. Version 3 moved the
 /// low bits of the base values into the embedded stream
-/// (how many: [`Header::flags`]); the encoder still writes version 2,
-/// all of them in the base section, on request.
-pub const VERSION: u8 = 3;
+/// (how many: [`Header::flags`]); version 4 added the stream's holds
+/// ([`Header::holds`]). The encoder writes version 4 only when a stream has
+/// holds, version 3 otherwise, and version 2 (all base bits in the base
+/// section) on request.
+pub const VERSION: u8 = 4;
 
 /// Largest [`Header::frames`]: parent-quad normals from level
 /// `MAX_LEVEL + 1` on, that is never.
@@ -80,6 +82,15 @@ pub struct Header {
     /// ([`qm_ezw::StreamParams::base_bits`]) in bits 0 to 4; the other bits
     /// (all of them before version 3) are reserved, zero.
     pub flags: u32,
+    /// Version 4: cuts of the stream that decode as a shorter cut. A
+    /// stream prefix of `n` bytes with `from < n < to` for a hold
+    /// `[from, to]` decodes as its first `from` bytes, because the encoder
+    /// measured those closer to the surface than any cut in between (see
+    /// [`Self::hold_cut`]). Offsets count stream bytes; the holds are
+    /// ordered and do not overlap. Not part of the bincode header struct:
+    /// written after it.
+    #[serde(skip)]
+    pub holds: Vec<[u32; 2]>,
 }
 
 /// The flags' bits that hold the base bits in the stream (version 3).
@@ -90,6 +101,16 @@ impl Header {
     /// world axes (see [`Self::frames`]).
     pub fn parent_frames_from(&self) -> Option<u32> {
         parent_frames_from(self.frames)
+    }
+
+    /// How many of the first `n` stream bytes a decoder uses: `from` when
+    /// `n` falls strictly inside a hold `[from, to]`, `n` otherwise.
+    pub fn hold_cut(&self, n: usize) -> usize {
+        let i = self.holds.partition_point(|h| h[1] as usize <= n);
+        match self.holds.get(i) {
+            Some(&[from, _]) if (from as usize) < n => from as usize,
+            _ => n,
+        }
     }
 
     /// What the bit-plane decoder must be told about the stream.
@@ -145,6 +166,7 @@ impl From<HeaderV1> for Header {
             planes: h.planes,
             passes: h.passes,
             flags: h.flags,
+            holds: Vec::new(),
         }
     }
 }
@@ -189,9 +211,16 @@ fn config() -> bincode::config::Configuration {
     bincode::config::standard()
 }
 
-/// Writes a complete container of version `header.version` (2 or 3).
+/// Writes a complete container of version `header.version` (2 to 4; holds
+/// need version 4).
 pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u8>> {
     let low_bits = header.stream_params().base_bits;
+    if header.version < 4 && !header.holds.is_empty() {
+        return Err(Error::Malformed {
+            what: format!("holds in a version {} header", header.version),
+        });
+    }
+    check_holds(&header.holds)?;
     if !(2..=VERSION).contains(&header.version) || base.low_bits != low_bits {
         return Err(Error::Malformed {
             what: format!(
@@ -200,10 +229,25 @@ pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u
             ),
         });
     }
-    let header_bytes =
+    let mut header_bytes =
         bincode::serde::encode_to_vec(header, config()).map_err(|e| Error::Malformed {
             what: e.to_string(),
         })?;
+    if header.version >= 4 {
+        let mut end = 0;
+        let relative: Vec<[u32; 2]> = (header.holds.iter())
+            .map(|&[from, to]| {
+                let gap = from - end;
+                end = to;
+                [gap, to - from]
+            })
+            .collect();
+        bincode::serde::encode_into_std_write(&relative, &mut header_bytes, config()).map_err(
+            |e| Error::Malformed {
+                what: e.to_string(),
+            },
+        )?;
+    }
     let mut out = Vec::with_capacity(64 + stream.len());
     out.extend_from_slice(&MAGIC);
     out.push(header.version);
@@ -300,12 +344,32 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
     if crc != crc32fast::hash(&data[..7 + header_len]) {
         return Err(Error::Checksum { section: "header" });
     }
-    let header: Header = if version == 1 {
-        decode_exact::<HeaderV1>(header_raw, "header")?.into()
-    } else {
-        Header {
+    let header: Header = match version {
+        1 => decode_exact::<HeaderV1>(header_raw, "header")?.into(),
+        2 | 3 => Header {
             version,
             ..decode_exact(header_raw, "header")?
+        },
+        _ => {
+            let (header, relative): (Header, Vec<[u32; 2]>) = decode_exact(header_raw, "header")?;
+            let mut end = 0u32;
+            let mut holds = Vec::with_capacity(relative.len());
+            for [gap, len] in relative {
+                let from = end.checked_add(gap);
+                let to = from.and_then(|f| f.checked_add(len));
+                let (Some(from), Some(to)) = (from, to) else {
+                    return Err(Error::Malformed {
+                        what: "a hold beyond 4 GiB".into(),
+                    });
+                };
+                holds.push([from, to]);
+                end = to;
+            }
+            Header {
+                version,
+                holds,
+                ..header
+            }
         }
     };
     let header_bytes = 7 + header_len + 4;
@@ -413,7 +477,22 @@ fn decode_exact<T: serde::de::DeserializeOwned>(raw: &[u8], what: &str) -> Resul
     Ok(value)
 }
 
+/// Holds must be non-empty, ordered and apart: `from < to <= next from`.
+fn check_holds(holds: &[[u32; 2]]) -> Result<()> {
+    let mut end = 0;
+    for &[from, to] in holds {
+        if from < end || to <= from {
+            return Err(Error::Malformed {
+                what: format!("hold [{from}, {to}] after one ending at {end}"),
+            });
+        }
+        end = to;
+    }
+    Ok(())
+}
+
 fn check_header(h: &Header, limits: &Limits) -> Result<()> {
+    check_holds(&h.holds)?;
     limit(
         "base vertex count",
         h.base_vertices as u64,
@@ -514,6 +593,7 @@ mod tests {
             planes: 14,
             passes: 14,
             flags: 10,
+            holds: vec![[3, 9], [9, 12], [300, 70_000]],
         };
         // 14 planes at level 3 leave room for the low 10 bits in the
         // stream; the flags say it holds them all.
@@ -535,6 +615,8 @@ mod tests {
         let (mut header, mut base) = sample();
         header.version = 2;
         assert!(write(&header, &base, b"").is_err());
+        header.holds.clear();
+        assert!(write(&header, &base, b"").is_err());
         header.flags = 0;
         base.low_bits = 0;
         base.values = vec![[0, 0, 0], [4095, 0, 7], [4095, 4095, -3], [0, 4095, 9]];
@@ -547,6 +629,26 @@ mod tests {
         );
         header.version = 1;
         assert!(write(&header, &base, b"").is_err());
+    }
+
+    /// Holds survive the round trip, map cuts inside them to their start,
+    /// and overlapping or empty ones are refused.
+    #[test]
+    fn holds_round_trip_and_map_cuts() {
+        let (header, base) = sample();
+        let bytes = write(&header, &base, b"").unwrap();
+        let c = read(&bytes, &Limits::DEFAULT).unwrap();
+        assert_eq!(c.header.holds, header.holds);
+        let cuts = [
+            0, 3, 4, 8, 9, 10, 11, 12, 13, 300, 301, 69_999, 70_000, 70_001,
+        ];
+        let mapped = [0, 3, 3, 3, 9, 9, 9, 12, 13, 300, 300, 300, 70_000, 70_001];
+        assert_eq!(cuts.map(|n| header.hold_cut(n)), mapped);
+        for holds in [vec![[3, 3]], vec![[3, 9], [8, 12]], vec![[9, 3]]] {
+            let mut bad = header.clone();
+            bad.holds = holds;
+            assert!(write(&bad, &base, b"").is_err(), "{:?}", bad.holds);
+        }
     }
 
     /// A high part whose value with its low bits would leave 32 bits is

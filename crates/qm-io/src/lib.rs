@@ -13,15 +13,17 @@ mod basecode;
 mod codec;
 pub mod container;
 mod error;
+pub mod holds;
 pub mod mesh;
 mod polymesh;
 
 pub use codec::{
     BasePlacement, Compressed, DecodeOptions, DecodeStatus, Decoder, Decompressed, EncodeOptions,
-    Frames, compress, decompress,
+    Frames, compress, compress_probed, decompress,
 };
 pub use container::Limits;
 pub use error::{Error, Result};
+pub use holds::Probes;
 pub use polymesh::PolyMesh;
 pub use qm_ezw::{self, Weighting};
 pub use qm_lift::{self, UpdateRule};

@@ -186,6 +186,34 @@ pub fn distance(a: &PolyMesh, b: &PolyMesh, options: &DistanceOptions) -> Result
     })
 }
 
+/// Closest points on a mesh's surface, fanned into triangles as
+/// [`distance`] fans it.
+pub struct Surface {
+    mesh: TriMesh,
+    origin: DVec3,
+}
+
+impl Surface {
+    /// The surface of `mesh` (faces of positive area, finite vertices, as
+    /// [`distance`] asks of mesh A).
+    pub fn new(mesh: &PolyMesh) -> Result<Self> {
+        let triangles = Triangles::new(mesh, Side::A)?;
+        let origin = triangles.bbox_center();
+        Ok(Surface {
+            mesh: triangles.trimesh(origin)?,
+            origin,
+        })
+    }
+
+    /// The point of the surface closest to `p`.
+    pub fn closest(&self, p: DVec3) -> DVec3 {
+        let q = (self.mesh)
+            .project_local_point(to_parry(p - self.origin), false)
+            .point;
+        DVec3::new(q.x, q.y, q.z) + self.origin
+    }
+}
+
 /// A mesh fanned into triangles of positive area.
 struct Triangles<'a> {
     positions: &'a [DVec3],

@@ -16,7 +16,7 @@
 //! # fn main() -> qm::Result<()> {
 //! let mesh = qm::read_mesh("model.obj".as_ref())?;
 //! let prepared = qm::prepare(&mesh, &qm::RemeshOptions::DEFAULT)?;
-//! let compressed = qm::compress(&prepared.mesh, &qm::EncodeOptions::DEFAULT)?;
+//! let compressed = qm::compress_against(&prepared.mesh, &mesh, &qm::EncodeOptions::DEFAULT)?;
 //! // Any prefix after the base mesh decodes.
 //! let cut = &compressed.bytes[..compressed.bytes.len() / 2];
 //! let decoded = qm::decompress(cut, &qm::DecodeOptions::default())?;
@@ -98,6 +98,23 @@ pub fn prepare(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Prepared> {
 /// Compresses a semi-regular mesh.
 pub fn compress(mesh: &SemiRegularMesh, options: &EncodeOptions) -> Result<Compressed> {
     Ok(qm_io::compress(mesh, options)?)
+}
+
+/// [`compress`] for a semi-regular mesh made from `input` (by [`prepare`]):
+/// the encoder's holds are measured against `input`'s surface, the way
+/// `qm distance` measures, rather than against `mesh` (see
+/// [`io::holds`]).
+pub fn compress_against(
+    mesh: &SemiRegularMesh,
+    input: &PolyMesh,
+    options: &EncodeOptions,
+) -> Result<Compressed> {
+    if !options.holds {
+        return compress(mesh, options);
+    }
+    let surface = qm_param::distance::Surface::new(input)?;
+    let probes = qm_io::Probes::new(mesh, |p| surface.closest(p));
+    Ok(qm_io::compress_probed(mesh, options, Some(&probes))?)
 }
 
 /// Decompresses `.qm` bytes; any cut after the base mesh is fine.

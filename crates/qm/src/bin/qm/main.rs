@@ -62,6 +62,12 @@ enum Command {
         /// giving it skips the second encoding).
         #[arg(long, conflicts_with = "no_frames", value_parser = clap::value_parser!(u32).range(3..=qm::lift::MAX_LEVEL as i64 + 1))]
         frames_from: Option<u32>,
+        /// Write no holds (default: the encoder decodes its stream at many
+        /// cuts and makes a cut that would decode worse than a shorter one
+        /// decode as the shorter one; costs encoding time and a few header
+        /// bytes per hold; see the README).
+        #[arg(long)]
+        no_holds: bool,
         /// No progress or summary output.
         #[arg(long)]
         quiet: bool,
@@ -164,12 +170,14 @@ fn main() -> ExitCode {
             normal_remesh,
             no_frames,
             frames_from,
+            no_holds,
             quiet,
         } => {
             let mut options = qm::EncodeOptions::DEFAULT
                 .with_bits(bits)
                 .with_passes(passes)
-                .with_max_bytes(bytes);
+                .with_max_bytes(bytes)
+                .with_holds(!no_holds);
             if no_frames {
                 options = options
                     .with_frames(false)
@@ -270,7 +278,8 @@ fn compress(
         }
     });
     progress.step("lifting and coding");
-    let compressed = qm::compress(&prepared.mesh, options).map_err(|e| Failure::about(input, e))?;
+    let compressed = qm::compress_against(&prepared.mesh, &mesh, options)
+        .map_err(|e| Failure::about(input, e))?;
     progress.step("writing");
     write_atomic(&output, &compressed.bytes)?;
     progress.finish();
@@ -418,6 +427,7 @@ struct Info {
     base_vertices: u32,
     base_faces: u32,
     base_low_bits_in_stream: u32,
+    holds: Vec<[u32; 2]>,
     vertices: u64,
     faces: u64,
     bbox_min: [f64; 3],
@@ -452,6 +462,7 @@ fn info(input: &Path, json: bool) -> Result<(), Failure> {
         base_vertices: h.base_vertices,
         base_faces: h.base_faces,
         base_low_bits_in_stream: c.base.low_bits,
+        holds: h.holds.clone(),
         vertices: base.sample_count(h.level as u32),
         faces: faces * n * n,
         bbox_min: h.origin,

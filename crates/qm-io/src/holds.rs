@@ -1,0 +1,306 @@
+//! Holds: where a longer cut of the stream would decode worse than a
+//! shorter one, the decoder stays at the shorter one.
+//!
+//! A bit-plane pass refines the coefficients one tree after another. With
+//! the update step every wavelet has zero mean, so the errors of a whole
+//! region's coefficients, of one sign, cancel; a pass that has refined half
+//! of them leaves errors of both signs, which do not (README, "Rate and
+//! distortion"). Inside such a pass the surface moves away from the input
+//! for a while. The encoder sees this: it decodes its own stream at many
+//! cuts, measures each against the surface with [`Probes`], and writes a
+//! *hold* `[from, to]` into the header (format version 4) wherever the cuts
+//! after `from` are worse than `from` until `to`. A decoder given a cut
+//! inside a hold decodes its first `from` bytes instead
+//! ([`crate::container::Header::hold_cut`]), so the error never grows with
+//! the bytes, as far as the encoder's measure goes.
+//!
+//! The measure is the area-weighted mean squared distance along the normal
+//! between the decoded surface and the input, at probe points (triangle
+//! centroids of the finest quads): the decoded point's offset from the
+//! point's foot on the input, along the normal of its triangle. The feet
+//! are either the lossless surface itself ([`Probes::on_surface`]: the
+//! encoder knows nothing else) or the closest points of the mesh the
+//! semi-regular mesh was made from ([`Probes::new`]), whose own distance
+//! (the remesh's error) then adds in with its sign, as it does in a Metro
+//! distance.
+
+use qm_lift::glam::DVec3;
+use qm_lift::{Coord, Quantizer, SemiRegularMesh};
+use rayon::prelude::*;
+
+use crate::codec::{Compressed, Decoder};
+use crate::container::Limits;
+
+/// Where a triangle carries its probe points: the degree-2 rule of three
+/// interior points, exact for the squared distance of a linear offset.
+const WEIGHTS: [[f64; 3]; 3] = [
+    [2.0 / 3.0, 1.0 / 6.0, 1.0 / 6.0],
+    [1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0],
+    [1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0],
+];
+
+/// Most probe points; above, every `k`-th quad carries them (the distance
+/// of `qm distance` uses 200,000 samples per side for the same purpose).
+pub const MAX_PROBES: usize = 1 << 17;
+
+/// Most cut decodes times samples per stream: the finer the mesh, the fewer
+/// cuts (cc_cube: a cut every byte or two near 170 bytes; the bunny: about
+/// 60 cuts).
+pub const CUT_WORK: usize = 1 << 26;
+
+/// Fewest cuts tried (besides the pass ends), however fine the mesh.
+pub const MIN_CUTS: usize = 48;
+
+/// A longer cut's error must exceed the best shorter one's by this factor
+/// (0.1 dB) for a hold to pay its header bytes: at 0.02 dB cc_cube's
+/// stream needed 52 holds (115 header bytes) and its measured PSNR fell no
+/// less often.
+const RISE: f64 = 1.023_292_992_3;
+
+/// Points where the encoder measures its cuts against the input surface.
+#[derive(Clone, Debug)]
+pub struct Probes {
+    points: Vec<Probe>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Probe {
+    /// The triangle's samples.
+    corners: [u32; 3],
+    /// The point's barycentric coordinates in it.
+    weights: [f64; 3],
+    /// The point's foot on the input surface (world coordinates).
+    foot: DVec3,
+    /// Unit normal of the triangle.
+    normal: DVec3,
+    /// Area the point stands for.
+    weight: f64,
+}
+
+impl Probes {
+    /// Probes at three points of each of the finest quads' two triangles
+    /// of `mesh` (of every `k`-th quad beyond [`MAX_PROBES`]), their feet
+    /// at `foot` of each point (the closest point of the input surface).
+    pub fn new(mesh: &SemiRegularMesh, foot: impl Fn(DVec3) -> DVec3 + Sync) -> Self {
+        let layout = mesh.layout();
+        let quads = layout.quads(layout.level());
+        let per_quad = 2 * WEIGHTS.len();
+        let stride = (per_quad * quads.len()).div_ceil(MAX_PROBES).max(1);
+        let p = |s: u32| mesh.positions()[s as usize];
+        let foot = &foot;
+        let points = (quads.par_iter().step_by(stride))
+            .flat_map_iter(|&[a, b, c, d]| {
+                [[a, b, c], [a, c, d]].into_iter().flat_map(move |corners| {
+                    let [p0, p1, p2] = corners.map(p);
+                    let cross = (p1 - p0).cross(p2 - p0);
+                    let weight = 0.5 * cross.length() * stride as f64 / WEIGHTS.len() as f64;
+                    WEIGHTS.map(|weights| {
+                        let at = weights[0] * p0 + weights[1] * p1 + weights[2] * p2;
+                        Probe {
+                            corners,
+                            weights,
+                            foot: foot(at),
+                            normal: cross.normalize_or_zero(),
+                            weight,
+                        }
+                    })
+                })
+            })
+            .collect();
+        Probes { points }
+    }
+
+    /// Probes whose feet are on `mesh` itself: the cuts are measured
+    /// against the lossless surface before quantization.
+    pub fn on_surface(mesh: &SemiRegularMesh) -> Self {
+        Probes::new(mesh, |p| p)
+    }
+
+    /// Number of probe points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Whether there are none (a mesh without area).
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// Area-weighted mean squared distance along the normal of the
+    /// quantized `values` from the feet.
+    fn error(&self, quantizer: &Quantizer, values: &[Coord]) -> f64 {
+        let at = |s: u32| quantizer.dequantize(values[s as usize].map(f64::from));
+        let (sum, weight) = self.points.iter().fold((0.0, 0.0), |(sum, weight), p| {
+            let [a, b, c] = p.corners.map(at);
+            let [u, v, w] = p.weights;
+            let offset = (u * a + v * b + w * c - p.foot).dot(p.normal);
+            (sum + p.weight * offset * offset, weight + p.weight)
+        });
+        if weight > 0.0 { sum / weight } else { 0.0 }
+    }
+}
+
+/// The cuts (stream offsets) at which [`find`] measures a stream of
+/// `len` bytes over `samples` samples: every pass end and log-spaced cuts
+/// from the first byte, as many as [`CUT_WORK`] allows.
+fn cuts(len: usize, samples: usize, pass_ends: &[usize]) -> Vec<usize> {
+    let count = (CUT_WORK / samples.max(1)).max(MIN_CUTS);
+    let ratio = (len.max(2) as f64).powf(1.0 / count as f64);
+    let mut cuts: Vec<usize> = (0..=count)
+        .map(|k| (ratio.powi(k as i32).round() as usize).min(len))
+        .chain(pass_ends.iter().copied().filter(|&e| e <= len))
+        .chain([len])
+        .collect();
+    cuts.sort_unstable();
+    cuts.dedup();
+    cuts
+}
+
+/// The holds of `compressed` (a complete container without holds): its
+/// stream decoded at [`cuts`], measured with `probes`.
+pub(crate) fn find(compressed: &Compressed, probes: &Probes) -> Vec<[u32; 2]> {
+    let start = compressed.header_bytes + compressed.base_bytes;
+    let ends: Vec<usize> = compressed.pass_ends.iter().map(|e| e - start).collect();
+    let samples = compressed.quantized.len();
+    let cuts = cuts(compressed.bytes.len() - start, samples, &ends);
+    select(&cuts, &errors(compressed, probes, &cuts))
+}
+
+/// The error of `compressed` at each of the stream cuts `cuts` (ascending),
+/// as a decoder sees them (holds and all).
+fn errors(compressed: &Compressed, probes: &Probes, cuts: &[usize]) -> Vec<f64> {
+    let decoder = Decoder::new(&compressed.bytes, &Limits::NONE).expect("the encoder's own bytes");
+    let stream = &compressed.bytes[decoder.stream_start()..];
+    // Contiguous runs of cuts per thread, so that each decode resumes from
+    // the last one's checkpoint.
+    let run = cuts.len().div_ceil(rayon::current_num_threads().max(1));
+    let runs: Vec<(Decoder, &[usize])> = (cuts.chunks(run.max(1)))
+        .map(|run| (decoder.clone(), run))
+        .collect();
+    (runs.into_par_iter())
+        .flat_map_iter(|(decoder, run)| {
+            let mut values = Vec::new();
+            run.iter()
+                .map(|&cut| {
+                    decoder.decode_into(&stream[..cut], None, None, &mut values);
+                    probes.error(&compressed.quantizer, &values)
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect()
+}
+
+/// Holds from the errors at the cuts: from the best cut so far to the
+/// first later cut at least as good, wherever a cut in between is worse
+/// by more than [`RISE`]; then joined where that loses little
+/// ([`JOIN`]).
+fn select(cuts: &[usize], errors: &[f64]) -> Vec<[u32; 2]> {
+    // Each hold with the error at its start.
+    let mut holds: Vec<([u32; 2], f64)> = Vec::new();
+    let mut hold = |from: usize, to: usize| {
+        let error = errors[from];
+        let span = [cuts[from] as u32, cuts[to] as u32];
+        match holds.last_mut() {
+            // A hold costs 2 to 10 header bytes, which every cut pays; the
+            // cuts between two holds whose starts are nearly as good gain
+            // little over the first start. Still monotone: the joined
+            // hold's end is at least as good as both starts.
+            Some((last, last_error)) if *last_error <= error * JOIN => last[1] = span[1],
+            _ => holds.push((span, error)),
+        }
+    };
+    let mut best = 0;
+    let mut rising = false;
+    for (i, &e) in errors.iter().enumerate() {
+        if e <= errors[best] {
+            if rising {
+                hold(best, i);
+            }
+            best = i;
+            rising = false;
+        } else if e > errors[best] * RISE {
+            rising = true;
+        }
+    }
+    if rising {
+        // The whole stream decodes whole, whatever its error.
+        hold(best, cuts.len() - 1);
+    }
+    holds.into_iter().map(|(span, _)| span).collect()
+}
+
+/// Two holds are joined when the first one's start errs by at most this
+/// factor (0.05 dB) more than the second one's.
+const JOIN: f64 = 1.011_579_454_1;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::codec::{EncodeOptions, compress};
+
+    /// Largest rise of each error over the smallest before it, as a factor.
+    fn worst_rise(errors: &[f64]) -> f64 {
+        let mut best = f64::INFINITY;
+        let mut worst = 1.0f64;
+        for &e in errors {
+            worst = worst.max(e / best);
+            best = best.min(e);
+        }
+        worst
+    }
+
+    /// A stream whose cuts, measured at every byte, get worse for a while
+    /// (the sphere's do, by far more than [`RISE`]) gets holds, and then no
+    /// cut is worse than a shorter one by more than [`RISE`]; cuts inside
+    /// a hold decode exactly as its start; the stream is the same.
+    #[test]
+    fn with_holds_no_cut_is_worse_than_a_shorter_one() {
+        let mesh = qm_lift::synthetic::bumpy_sphere(4);
+        let probes = Probes::on_surface(&mesh);
+        let plain = compress(&mesh, &EncodeOptions::DEFAULT.with_holds(false)).unwrap();
+        let held = compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
+        let stream = |c: &Compressed| c.bytes[c.header_bytes + c.base_bytes..].to_vec();
+        assert_eq!(stream(&plain), stream(&held));
+        let every: Vec<usize> = (1..=stream(&plain).len()).collect();
+        let before = worst_rise(&errors(&plain, &probes, &every));
+        let after = worst_rise(&errors(&held, &probes, &every));
+        assert!(before > 1.05, "the sphere's cuts rise by {before}");
+        assert!(after <= RISE, "held cuts still rise by {after}");
+        let header = crate::container::read(&held.bytes, &Limits::NONE)
+            .unwrap()
+            .header;
+        assert_eq!(header.version, 4);
+        let decoder = Decoder::new(&held.bytes, &Limits::NONE).unwrap();
+        let (mut inside, mut start) = (Vec::new(), Vec::new());
+        let s = stream(&held);
+        for &[from, to] in &header.holds {
+            decoder.decode_into(&s[..from as usize], None, None, &mut start);
+            decoder.decode_into(&s[..to as usize - 1], None, None, &mut inside);
+            assert_eq!(inside, start);
+        }
+    }
+
+    #[test]
+    fn holds_span_each_rise_from_the_best_cut_to_recovery() {
+        let cuts = [1, 2, 3, 4, 5, 6, 7, 8];
+        let errors = [9.0, 5.0, 6.0, 7.0, 4.0, 4.01, 3.0, 3.5];
+        // 2..5 rises by 40%: held; 5..6 by 0.25%: not; 7..8 never recovers.
+        assert_eq!(select(&cuts, &errors), vec![[2, 5], [7, 8]]);
+        // Holds from 10 and from 30 start 0.04 dB apart: joined; the one
+        // from 50 starts 0.3 dB lower: not.
+        let cuts = [10, 20, 30, 40, 50, 60, 70];
+        let errors = [1.01, 1.1, 1.0, 1.1, 0.93, 1.0, 0.9];
+        assert_eq!(select(&cuts, &errors), vec![[10, 50], [50, 70]]);
+        assert!(select(&cuts, &[3.0, 2.0, 1.0]).is_empty());
+    }
+
+    #[test]
+    fn cuts_cover_the_stream_and_its_pass_ends() {
+        let c = cuts(10_000, 1 << 20, &[17, 5_000]);
+        assert_eq!((c[0], c[c.len() - 1]), (1, 10_000));
+        assert!(c.contains(&17) && c.contains(&5_000));
+        assert!(c.len() > MIN_CUTS && c.windows(2).all(|w| w[0] < w[1]));
+        // A small mesh gets a cut at nearly every byte.
+        assert_eq!(cuts(300, 64, &[]).len(), 300);
+    }
+}
