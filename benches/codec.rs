@@ -41,12 +41,17 @@ fn codec(c: &mut Criterion) {
     group
         .sample_size(10)
         .throughput(Throughput::Elements(samples));
-    // The default tries two frame sources and keeps one; one fixed source
-    // is a single encoding.
+    // The default tries two frame sources and keeps one, then measures
+    // the stream's cuts for holds; one fixed source without holds is a
+    // single encoding.
     group.bench_function("encode/lossless", |b| {
         b.iter(|| qm::compress(&mesh, &EncodeOptions::DEFAULT).unwrap())
     });
-    let one_source = EncodeOptions::DEFAULT.with_frame_source(Frames::ParentsFrom(3));
+    let no_holds = EncodeOptions::DEFAULT.with_holds(false);
+    group.bench_function("encode/lossless-no-holds", |b| {
+        b.iter(|| qm::compress(&mesh, &no_holds).unwrap())
+    });
+    let one_source = no_holds.with_frame_source(Frames::ParentsFrom(3));
     group.bench_function("encode/lossless-one-frame-source", |b| {
         b.iter(|| qm::compress(&mesh, &one_source).unwrap())
     });

@@ -61,6 +61,8 @@ pub struct ModelResult {
     pub full_bytes: usize,
     /// Table 1: coefficient bytes and PSNR per entry of [`PASSES`].
     pub passes: Vec<(u32, usize, f64)>,
+    /// The stream's holds (stream offsets; none before format version 4).
+    pub holds: Vec<[u32; 2]>,
     pub points: Vec<Point>,
     /// `None` when Draco was not run on this model, with the reason.
     pub draco_missing: Option<String>,
@@ -85,6 +87,42 @@ impl ModelResult {
         c.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
         c
     }
+
+    /// The largest fall of qm's PSNR between byte prefixes: how far a
+    /// prefix lies below the best shorter one (0 when it never falls). A
+    /// pass count decode counts as the prefix that ends with the pass,
+    /// unless that end is inside a hold: the prefix then decodes less.
+    pub fn largest_fall(&self) -> f64 {
+        let held = |bytes: usize| {
+            let n = bytes.saturating_sub(self.header_base_bytes) as u32;
+            self.holds.iter().any(|&[from, to]| from < n && n < to)
+        };
+        let mut prefixes: Vec<(usize, f64)> = (self.points.iter())
+            .filter(|p| p.coder == "qm" && !(p.setting.starts_with("passes=") && held(p.bytes)))
+            .map(|p| (p.bytes, p.report.psnr_db))
+            .collect();
+        prefixes.sort_by_key(|p| p.0);
+        largest_fall(&prefixes)
+    }
+}
+
+/// The largest amount by which a point of `curve` (sorted by bytes) lies
+/// below the best point with fewer bytes.
+pub fn largest_fall(curve: &[(usize, f64)]) -> f64 {
+    let mut best = f64::NEG_INFINITY;
+    let mut fall = 0.0f64;
+    for (i, &(bytes, db)) in curve.iter().enumerate() {
+        if i > 0 && curve[i - 1].0 < bytes {
+            best = best.max(
+                curve[..i]
+                    .iter()
+                    .map(|p| p.1)
+                    .fold(f64::NEG_INFINITY, f64::max),
+            );
+        }
+        fall = fall.max(best - db);
+    }
+    fall
 }
 
 /// Bytes a curve needs to reach `target` dB.
@@ -413,6 +451,10 @@ fn model(file: &Path, draco: Option<&Draco>, bar: &ProgressBar) -> Result<ModelR
         header_base_bytes: first,
         full_bytes: full,
         passes,
+        holds: qm::io::container::read(&compressed.bytes, &qm::Limits::NONE)
+            .map_err(|e| at(e.to_string()))?
+            .header
+            .holds,
         points,
         draco_missing,
     })
@@ -597,16 +639,18 @@ fn summary(results: &[ModelResult], no_draco: bool, elapsed: f64) -> String {
          lossless stream (`RemeshOptions::DEFAULT`, `EncodeOptions::DEFAULT`), \
          decoded at pass counts and byte prefixes. Draco: `draco_encoder -qp Q \
          -cl 10`, Q = 6..14, on the positions and faces (triangulated) only. \
-         Goal: qm ≤ 1/3 of Draco's bytes at 65 dB and ≤ 1/2 at 78 dB.\n"
+         Goal: qm ≤ 1/3 of Draco's bytes at 65 dB and ≤ 1/2 at 78 dB. \
+         \"Fall\": the most qm's PSNR at a byte prefix lies below a shorter \
+         prefix's (0 if it never falls).\n"
     );
     if no_draco {
         let _ = writeln!(s, "Draco's tools were not found: no Draco column.\n");
     }
     let _ = writeln!(
         s,
-        "| model | vertices | qm @65 dB | Draco @65 dB | qm/Draco @65 | qm @78 dB | Draco @78 dB | qm/Draco @78 | qm lossless | prepare |"
+        "| model | vertices | qm @65 dB | Draco @65 dB | qm/Draco @65 | qm @78 dB | Draco @78 dB | qm/Draco @78 | qm lossless | fall | prepare |"
     );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|");
     for r in results {
         let (qm, dr) = (r.curve("qm"), r.curve("draco"));
         let mut cells = Vec::new();
@@ -624,11 +668,12 @@ fn summary(results: &[ModelResult], no_draco: bool, elapsed: f64) -> String {
         let lossless_db = r.lossless_psnr();
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} B, {lossless_db:.1} dB | {:.1} s |",
+            "| {} | {} | {} | {} B, {lossless_db:.1} dB | {:.2} dB | {:.1} s |",
             r.name,
             r.input_vertices,
             cells.join(" | "),
             r.full_bytes,
+            r.largest_fall(),
             r.prepare_s,
         );
     }
@@ -649,6 +694,15 @@ mod tests {
         assert!((b - 200.0).abs() < 1e-9);
         assert_eq!(bytes_at(&c, 95.0), AtPsnr::NotReached);
         assert_eq!(bytes_at(&c, 40.0), AtPsnr::AtMost(100.0));
+    }
+
+    #[test]
+    fn falls_are_measured_against_shorter_prefixes_only() {
+        assert_eq!(largest_fall(&[(10, 50.0), (20, 60.0), (30, 70.0)]), 0.0);
+        assert_eq!(largest_fall(&[(10, 50.0), (20, 60.0), (30, 59.5)]), 0.5);
+        // Points of equal size are not shorter than each other.
+        assert_eq!(largest_fall(&[(10, 50.0), (10, 52.0), (20, 51.0)]), 1.0);
+        assert_eq!(largest_fall(&[(10, 52.0), (10, 50.0)]), 0.0);
     }
 
     #[test]
