@@ -119,6 +119,18 @@ fn info_json_reports_the_layout() {
             .windows(2)
             .all(|h| h[0][0] < h[0][1] && h[0][1] <= h[1][0])
     );
+    // A cut inside the first one decodes as its start, and says so.
+    let prefix = v["header_bytes"].as_u64().unwrap() + v["base_bytes"].as_u64().unwrap();
+    let [from, to] = holds[0];
+    assert!(to - from >= 2, "{holds:?}");
+    let cut = (prefix + from + 1).to_string();
+    let out = qm(
+        &["decompress", "cube.qm", "-o", "held.obj", "--bytes", &cut],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let said = format!("inside a hold: decoded as the first {}", prefix + from);
+    assert!(stderr(&out).contains(&said), "{}", stderr(&out));
     // The cube's corners predict each other exactly: no noise bits to
     // move into the stream.
     assert_eq!(v["base_low_bits_in_stream"], 0);

@@ -479,6 +479,9 @@ pub struct Decompressed {
     pub base_bytes: usize,
     /// Stream bytes present.
     pub stream_bytes: usize,
+    /// Stream bytes decoded: fewer than present when the cut falls inside
+    /// one of the header's holds ([`container::Header::hold_cut`]).
+    pub decoded_stream_bytes: usize,
 }
 
 impl Decompressed {
@@ -535,7 +538,10 @@ pub fn decompress(bytes: &[u8], options: &DecodeOptions) -> Result<Decompressed>
         base_bytes,
         ..
     } = decoder;
+    let stream_bytes = bytes.len() - header_bytes - base_bytes;
     Ok(Decompressed {
+        decoded_stream_bytes: header.hold_cut(stream_bytes),
+        stream_bytes,
         values,
         quantizer,
         level: status.level,
@@ -544,7 +550,6 @@ pub fn decompress(bytes: &[u8], options: &DecodeOptions) -> Result<Decompressed>
         truncated: status.truncated,
         header_bytes,
         base_bytes,
-        stream_bytes: bytes.len() - header_bytes - base_bytes,
         layout,
     })
 }

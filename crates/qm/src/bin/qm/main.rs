@@ -391,10 +391,18 @@ fn decompress(
     if !quiet {
         let used = decoded.header_bytes + decoded.base_bytes + decoded.stream_bytes;
         eprintln!(
-            "{}: {} of {} bytes, {} of {} passes -> {}: level {}, {} vertices, {} quads",
+            "{}: {} of {} bytes{}, {} of {} passes -> {}: level {}, {} vertices, {} quads",
             input.display(),
             used,
             data.len(),
+            if decoded.decoded_stream_bytes < decoded.stream_bytes {
+                format!(
+                    " (inside a hold: decoded as the first {})",
+                    used - decoded.stream_bytes + decoded.decoded_stream_bytes
+                )
+            } else {
+                String::new()
+            },
             decoded.passes,
             decoded.header.passes,
             output.display(),
