@@ -232,12 +232,15 @@ fn crc32(data: &[u8]) -> u32 {
     !crc
 }
 
-/// A valid small `.qm`: the holed grid at 10 bits (under a kilobyte).
+/// A valid small `.qm`: the holed grid at 10 bits (under a kilobyte), a
+/// version 4 file with holds, so that corruptions reach the holds' reader.
 fn valid_qm() -> Vec<u8> {
     let mesh = qm::read_mesh(&asset("quad/holed_grid_l4.obj")).unwrap();
     let prepared = qm::detect(&mesh).unwrap();
     let options = qm::EncodeOptions::DEFAULT.with_bits(10);
-    qm::compress(&prepared.mesh, &options).unwrap().bytes
+    let bytes = qm::compress(&prepared.mesh, &options).unwrap().bytes;
+    assert_eq!(bytes[4], 4, "a version 4 file");
+    bytes
 }
 
 /// Byte ranges of a valid `.qm`: header (from the version byte) with its

@@ -39,7 +39,8 @@ pub struct EncodeOptions {
     /// Where the base values' low bits go.
     pub base: BasePlacement,
     /// Measure the stream at many cuts and write holds where a longer cut
-    /// would decode worse than a shorter one (see [`crate::holds`]).
+    /// would decode worse than a shorter one (see [`crate::holds`];
+    /// default: on).
     pub holds: bool,
 }
 
@@ -166,7 +167,8 @@ pub struct Compressed {
     pub header_bytes: usize,
     /// Bytes of the base section.
     pub base_bytes: usize,
-    /// File size needed to decode the first `k + 1` passes, for each pass.
+    /// File size needed to decode the first `k + 1` passes, for each pass
+    /// (where a pass ends inside a hold, the hold's end).
     pub pass_ends: Vec<usize>,
     /// The quantized samples the stream reproduces exactly when complete.
     pub quantized: Vec<Coord>,
@@ -244,6 +246,7 @@ pub fn compress_probed(
             }
         }
     };
+    let mut stream_end = None;
     if options.holds {
         let own;
         let probes = match probes {
@@ -253,7 +256,25 @@ pub fn compress_probed(
                 &own
             }
         };
-        let holds = holds::find(&compressed, probes);
+        if probes.samples() != mesh.layout().sample_count() {
+            return Err(Error::Setting {
+                what: "samples of the probes' mesh",
+                value: probes.samples() as u64,
+                min: mesh.layout().sample_count() as u64,
+                max: mesh.layout().sample_count() as u64,
+            });
+        }
+        let mut holds = holds::find(&compressed, probes);
+        if let Some(max) = options.max_bytes {
+            // A budget that ends inside a hold would carry bytes no decoder
+            // reads: the stream ends at the hold's start instead. Holds
+            // from there on would be header bytes for nothing.
+            let held = with_holds(compressed.clone(), holds.clone())?;
+            let room = max.saturating_sub(held.header_bytes + held.base_bytes);
+            let end = container::hold_cut(&holds, room);
+            holds.retain(|&[from, _]| (from as usize) < end);
+            stream_end = Some(end);
+        }
         compressed = with_holds(compressed, holds)?;
     }
     if let Some(max) = options.max_bytes {
@@ -265,9 +286,12 @@ pub fn compress_probed(
                 max: prefix as u64,
             });
         }
-        compressed.bytes.truncate(max);
-        for end in &mut compressed.pass_ends {
-            *end = (*end).min(max);
+        // The kept holds all end by `stream_end`: the header they shrank
+        // leaves room that would only reach into a dropped one.
+        let end = prefix + stream_end.map_or(max - prefix, |e| e.min(max - prefix));
+        compressed.bytes.truncate(end);
+        for pass_end in &mut compressed.pass_ends {
+            *pass_end = (*pass_end).min(end);
         }
     }
     Ok(compressed)
@@ -341,28 +365,41 @@ fn compress_with(
 }
 
 /// `compressed` (without holds) rewritten with `holds` in a version 4
-/// header; unchanged if there are none.
+/// header; unchanged if there are none. A pass end inside a hold moves to
+/// the hold's end: a shorter file decodes as the hold's start.
 fn with_holds(compressed: Compressed, holds: Vec<[u32; 2]>) -> Result<Compressed> {
     if holds.is_empty() {
         return Ok(compressed);
     }
-    let old_prefix = compressed.header_bytes + compressed.base_bytes;
     let c = container::read(&compressed.bytes, &Limits::NONE)?;
     let header = Header {
         version: 4,
         holds,
         ..c.header
     };
-    let bytes = container::write(&header, &c.base, c.stream)?;
-    let header_bytes = header_len(&bytes);
-    let shift = header_bytes - compressed.header_bytes;
+    // Only the header changes: the base section and the stream are
+    // spliced on as they are.
+    let fresh = container::write(&header, &c.base, &[])?;
+    let header_bytes = header_len(&fresh);
+    let mut bytes = fresh[..header_bytes].to_vec();
+    bytes.extend_from_slice(&compressed.bytes[compressed.header_bytes..]);
+    let prefix = header_bytes + compressed.base_bytes;
+    let old_prefix = compressed.header_bytes + compressed.base_bytes;
+    let pass_ends = (compressed.pass_ends.iter())
+        .map(|&e| {
+            let n = (e - old_prefix) as u32;
+            let to = (header.holds.iter())
+                .find(|&&[from, to]| from < n && n < to)
+                .map_or(n, |h| h[1]);
+            prefix + to as usize
+        })
+        .collect();
     Ok(Compressed {
-        pass_ends: (compressed.pass_ends.iter()).map(|e| e + shift).collect(),
+        pass_ends,
         header_bytes,
         bytes,
         ..compressed
     })
-    .inspect(|c| debug_assert_eq!(c.header_bytes + c.base_bytes, old_prefix + shift))
 }
 
 /// Unit normal of the finest surface at every sample (the sum of its quads'
@@ -585,6 +622,9 @@ pub struct DecodeStatus {
     pub passes: u32,
     /// Whether the stream ended before the passes asked for.
     pub truncated: bool,
+    /// Stream bytes decoded: fewer than given when the cut falls inside one
+    /// of the header's holds ([`container::Header::hold_cut`]).
+    pub decoded_bytes: usize,
 }
 
 impl Decoder {
@@ -634,7 +674,7 @@ impl Decoder {
     }
 
     /// Decodes `stream` (the bytes after [`Self::stream_start`], cut
-    /// anywhere) up to `passes` passes and reconstructs `level` (default: the
+    /// anywhere; a cut inside a hold decodes as the hold's start) up to `passes` passes and reconstructs `level` (default: the
     /// finest) into `values`, one quantized value per sample id; at a level
     /// below the finest only that level's samples hold positions.
     pub fn decode_into(
@@ -687,6 +727,7 @@ impl Decoder {
             level,
             passes: decoded.passes,
             truncated: decoded.truncated,
+            decoded_bytes: stream.len(),
         }
     }
 }
@@ -764,8 +805,18 @@ mod tests {
     #[test]
     fn byte_budget_and_coarser_levels() {
         let mesh = sphere(4);
-        let c = compress(&mesh, &EncodeOptions::DEFAULT.with_max_bytes(Some(600))).unwrap();
-        assert_eq!(c.bytes.len(), 600);
+        let budget = EncodeOptions::DEFAULT.with_max_bytes(Some(600));
+        assert_eq!(
+            compress(&mesh, &budget.with_holds(false))
+                .unwrap()
+                .bytes
+                .len(),
+            600
+        );
+        // With holds the file may end sooner: at a hold's start, and without
+        // the header bytes of holds past the budget.
+        let c = compress(&mesh, &budget).unwrap();
+        assert!((500..=600).contains(&c.bytes.len()), "{}", c.bytes.len());
         let d = decompress(&c.bytes, &DecodeOptions::default().with_level(Some(2))).unwrap();
         assert!(d.truncated);
         let poly = d.to_polymesh();

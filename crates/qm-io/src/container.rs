@@ -93,6 +93,15 @@ pub struct Header {
     pub holds: Vec<[u32; 2]>,
 }
 
+/// [`Header::hold_cut`] for ordered, non-overlapping `holds`.
+pub fn hold_cut(holds: &[[u32; 2]], n: usize) -> usize {
+    let i = holds.partition_point(|h| h[1] as usize <= n);
+    match holds.get(i) {
+        Some(&[from, _]) if (from as usize) < n => from as usize,
+        _ => n,
+    }
+}
+
 /// The flags' bits that hold the base bits in the stream (version 3).
 pub const BASE_BITS_MASK: u32 = 0x1f;
 
@@ -106,11 +115,7 @@ impl Header {
     /// How many of the first `n` stream bytes a decoder uses: `from` when
     /// `n` falls strictly inside a hold `[from, to]`, `n` otherwise.
     pub fn hold_cut(&self, n: usize) -> usize {
-        let i = self.holds.partition_point(|h| h[1] as usize <= n);
-        match self.holds.get(i) {
-            Some(&[from, _]) if (from as usize) < n => from as usize,
-            _ => n,
-        }
+        hold_cut(&self.holds, n)
     }
 
     /// What the bit-plane decoder must be told about the stream.
@@ -248,10 +253,15 @@ pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u
             },
         )?;
     }
+    let header_len = u16::try_from(header_bytes.len()).map_err(|_| Error::Limit {
+        what: "header length (holds)",
+        value: header_bytes.len() as u64,
+        max: u16::MAX as u64,
+    })?;
     let mut out = Vec::with_capacity(64 + stream.len());
     out.extend_from_slice(&MAGIC);
     out.push(header.version);
-    out.extend_from_slice(&(header_bytes.len() as u16).to_le_bytes());
+    out.extend_from_slice(&header_len.to_le_bytes());
     out.extend_from_slice(&header_bytes);
     out.extend_from_slice(&crc32fast::hash(&out).to_le_bytes());
 
@@ -350,7 +360,7 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
             version,
             ..decode_exact(header_raw, "header")?
         },
-        _ => {
+        4 => {
             let (header, relative): (Header, Vec<[u32; 2]>) = decode_exact(header_raw, "header")?;
             let mut end = 0u32;
             let mut holds = Vec::with_capacity(relative.len());
@@ -371,6 +381,7 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
                 ..header
             }
         }
+        _ => unreachable!("version {version} was checked above"),
     };
     let header_bytes = 7 + header_len + 4;
     check_header(&header, limits)?;
@@ -648,6 +659,31 @@ mod tests {
             let mut bad = header.clone();
             bad.holds = holds;
             assert!(write(&bad, &base, b"").is_err(), "{:?}", bad.holds);
+        }
+        // More holds than a 64 KiB header holds: refused, not wrapped.
+        let mut many = header.clone();
+        many.holds = (0..40_000).map(|k| [3 * k, 3 * k + 1]).collect();
+        assert!(matches!(write(&many, &base, b""), Err(Error::Limit { .. })));
+    }
+
+    /// A version 4 header whose holds, added up, pass 4 GiB is refused.
+    #[test]
+    fn holds_beyond_4_gib_are_refused() {
+        let (header, base) = sample();
+        let good = write(&header, &base, b"").unwrap();
+        let mut raw = bincode::serde::encode_to_vec(&header, config()).unwrap();
+        let relative: Vec<[u32; 2]> = vec![[u32::MAX - 1, 1], [1, 1]];
+        bincode::serde::encode_into_std_write(&relative, &mut raw, config()).unwrap();
+        let mut bytes = MAGIC.to_vec();
+        bytes.push(4);
+        bytes.extend_from_slice(&(raw.len() as u16).to_le_bytes());
+        bytes.extend_from_slice(&raw);
+        bytes.extend_from_slice(&crc32fast::hash(&bytes).to_le_bytes());
+        let old_header = 7 + u16::from_le_bytes([good[5], good[6]]) as usize + 4;
+        bytes.extend_from_slice(&good[old_header..]);
+        match read(&bytes, &Limits::DEFAULT) {
+            Err(Error::Malformed { what }) => assert!(what.contains("4 GiB"), "{what}"),
+            other => panic!("{other:?}"),
         }
     }
 

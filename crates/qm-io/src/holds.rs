@@ -45,10 +45,10 @@ const WEIGHTS: [[f64; 3]; 3] = [
 pub const MAX_PROBES: usize = 1 << 17;
 
 /// Most cut decodes times samples per stream: the finer the mesh, the fewer
-/// cuts (cc_cube: 2,730, one at every byte below about 300 bytes; spot:
-/// 202; the bunny: [`MIN_CUTS`]). Each cut is a decode with a whole inverse
-/// lifting: 2^26 made spot's encoding 9 times slower than without holds,
-/// for no hold.
+/// log-spaced cuts (cc_cube: 2,730 steps, about 1,260 distinct cuts, one
+/// at every byte below about 300 bytes; spot: 170; the bunny: 25, from
+/// [`MIN_CUTS`]; each plus the pass ends). Each cut is a decode with a whole
+/// inverse lifting: 2^26 made spot's encoding 2.5 times slower again.
 pub const CUT_WORK: usize = 1 << 24;
 
 /// Fewest cuts tried (besides the pass ends), however fine the mesh.
@@ -56,9 +56,9 @@ pub const MIN_CUTS: usize = 24;
 
 /// A longer cut's error must exceed the best shorter one's by this factor
 /// (0.1 dB) for a hold to pay its header bytes. At 0.02 dB cc_cube's
-/// header grew to 177 bytes instead of 111 (65 dB at 291 bytes instead of
-/// 225), for a largest measured fall of 0.025 dB instead of 0.07 (README,
-/// "Holds").
+/// header grew to 177 bytes instead of 111 (on a 2% grid of prefixes, 65
+/// dB at 291 bytes instead of 225), for a largest measured fall of 0.025
+/// dB instead of 0.07 (README, "Holds").
 const RISE: f64 = 1.023_292_992_3;
 
 /// The rise a hold needs in a stream of [`LONG_STREAM`] bytes or more
@@ -74,6 +74,8 @@ pub const LONG_STREAM: usize = 1 << 16;
 #[derive(Clone, Debug)]
 pub struct Probes {
     points: Vec<Probe>,
+    /// Samples of the mesh the probes were built on.
+    samples: usize,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -120,13 +122,22 @@ impl Probes {
                 })
             })
             .collect();
-        Probes { points }
+        Probes {
+            points,
+            samples: layout.sample_count(),
+        }
     }
 
     /// Probes whose feet are on `mesh` itself: the cuts are measured
     /// against the lossless surface before quantization.
     pub fn on_surface(mesh: &SemiRegularMesh) -> Self {
         Probes::new(mesh, |p| p)
+    }
+
+    /// Samples of the mesh the probes were built on: a stream of another
+    /// mesh is refused.
+    pub fn samples(&self) -> usize {
+        self.samples
     }
 
     /// Number of probe points.
@@ -214,7 +225,8 @@ fn select(cuts: &[usize], errors: &[f64], rise: f64) -> Vec<[u32; 2]> {
     let mut holds: Vec<([u32; 2], f64)> = Vec::new();
     let mut hold = |from: usize, to: usize| {
         let error = errors[from];
-        let span = [cuts[from] as u32, cuts[to] as u32];
+        // Stream offsets fit 32 bits: the container's holds are u32.
+        let span = [cuts[from], cuts[to]].map(|c| u32::try_from(c).unwrap_or(u32::MAX));
         match holds.last_mut() {
             // A hold costs 2 to 10 header bytes, which every cut pays; the
             // cuts between two holds whose starts are nearly as good gain
@@ -297,6 +309,35 @@ mod tests {
             decoder.decode_into(&s[..to as usize - 1], None, None, &mut inside);
             assert_eq!(inside, start);
         }
+    }
+
+    /// A byte budget that ends inside a hold ends at its start instead,
+    /// and holds past the budget are dropped: every byte sent is decoded,
+    /// to what the whole stream's decoder makes of that cut.
+    #[test]
+    fn a_budget_sends_only_bytes_that_are_decoded() {
+        let mesh = qm_lift::synthetic::bumpy_sphere(4);
+        let full = compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
+        let read = |bytes: &[u8]| crate::container::read(bytes, &Limits::NONE).unwrap().header;
+        let holds = read(&full.bytes).holds;
+        let [from, to] = *holds.iter().max_by_key(|h| h[1] - h[0]).unwrap();
+        assert!(to - from > 64 && holds.len() > 2, "{holds:?}");
+        let start = full.header_bytes + full.base_bytes;
+        let budget = start + (from + to) as usize / 2;
+        let cut = compress(&mesh, &EncodeOptions::DEFAULT.with_max_bytes(Some(budget))).unwrap();
+        let header = read(&cut.bytes);
+        let n = cut.bytes.len() - (cut.header_bytes + cut.base_bytes);
+        assert!(cut.bytes.len() < budget && n == from as usize, "{n}");
+        assert_eq!(header.hold_cut(n), n);
+        assert!(header.holds.len() < holds.len());
+        assert!(header.holds.iter().all(|&[f, _]| (f as usize) < n));
+        let decode = |bytes: &[u8]| {
+            let d = Decoder::new(bytes, &Limits::NONE).unwrap();
+            let mut values = Vec::new();
+            d.decode_into(&bytes[d.stream_start()..], None, None, &mut values);
+            values
+        };
+        assert_eq!(decode(&cut.bytes), decode(&full.bytes[..start + n]));
     }
 
     #[test]
