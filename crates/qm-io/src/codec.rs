@@ -167,8 +167,10 @@ pub struct Compressed {
     pub header_bytes: usize,
     /// Bytes of the base section.
     pub base_bytes: usize,
-    /// File size needed to decode the first `k + 1` passes, for each pass
-    /// (where a pass ends inside a hold, the hold's end).
+    /// File size at which the first `k + 1` passes end, for each pass. A
+    /// file cut there decodes them, unless the cut falls inside a hold
+    /// ([`container::Header::hold_cut`]): then it decodes as the hold's
+    /// start, which the encoder measured closer to the input.
     pub pass_ends: Vec<usize>,
     /// The quantized samples the stream reproduces exactly when complete.
     pub quantized: Vec<Coord>,
@@ -365,8 +367,7 @@ fn compress_with(
 }
 
 /// `compressed` (without holds) rewritten with `holds` in a version 4
-/// header; unchanged if there are none. A pass end inside a hold moves to
-/// the hold's end: a shorter file decodes as the hold's start.
+/// header; unchanged if there are none.
 fn with_holds(compressed: Compressed, holds: Vec<[u32; 2]>) -> Result<Compressed> {
     if holds.is_empty() {
         return Ok(compressed);
@@ -383,17 +384,8 @@ fn with_holds(compressed: Compressed, holds: Vec<[u32; 2]>) -> Result<Compressed
     let header_bytes = header_len(&fresh);
     let mut bytes = fresh[..header_bytes].to_vec();
     bytes.extend_from_slice(&compressed.bytes[compressed.header_bytes..]);
-    let prefix = header_bytes + compressed.base_bytes;
-    let old_prefix = compressed.header_bytes + compressed.base_bytes;
-    let pass_ends = (compressed.pass_ends.iter())
-        .map(|&e| {
-            let n = (e - old_prefix) as u32;
-            let to = (header.holds.iter())
-                .find(|&&[from, to]| from < n && n < to)
-                .map_or(n, |h| h[1]);
-            prefix + to as usize
-        })
-        .collect();
+    let shift = header_bytes - compressed.header_bytes;
+    let pass_ends = compressed.pass_ends.iter().map(|e| e + shift).collect();
     Ok(Compressed {
         pass_ends,
         header_bytes,
