@@ -94,8 +94,8 @@ impl ModelResult {
     /// unless that end is inside a hold: the prefix then decodes less.
     pub fn largest_fall(&self) -> f64 {
         let held = |bytes: usize| {
-            let n = bytes.saturating_sub(self.header_base_bytes) as u32;
-            self.holds.iter().any(|&[from, to]| from < n && n < to)
+            let n = bytes.saturating_sub(self.header_base_bytes);
+            qm::io::container::hold_cut(&self.holds, n) < n
         };
         let mut prefixes: Vec<(usize, f64)> = (self.points.iter())
             .filter(|p| p.coder == "qm" && !(p.setting.starts_with("passes=") && held(p.bytes)))
@@ -109,18 +109,16 @@ impl ModelResult {
 /// The largest amount by which a point of `curve` (sorted by bytes) lies
 /// below the best point with fewer bytes.
 pub fn largest_fall(curve: &[(usize, f64)]) -> f64 {
-    let mut best = f64::NEG_INFINITY;
+    // The best of the points with fewer bytes, and of those with as many.
+    let (mut shorter, mut same) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
     let mut fall = 0.0f64;
     for (i, &(bytes, db)) in curve.iter().enumerate() {
         if i > 0 && curve[i - 1].0 < bytes {
-            best = best.max(
-                curve[..i]
-                    .iter()
-                    .map(|p| p.1)
-                    .fold(f64::NEG_INFINITY, f64::max),
-            );
+            shorter = shorter.max(same);
+            same = f64::NEG_INFINITY;
         }
-        fall = fall.max(best - db);
+        same = same.max(db);
+        fall = fall.max(shorter - db);
     }
     fall
 }

@@ -11,6 +11,7 @@
 use qm_ezw::{Weighting, ZeroTree};
 use qm_lift::glam::DVec3;
 use qm_lift::{BaseMesh, Coord, Layout, Lifting, Quantizer, SemiRegularMesh, UpdateRule};
+use rayon::prelude::*;
 
 use crate::container::{self, BaseSection, Header, Limits};
 use crate::holds::{self, Probes};
@@ -271,8 +272,12 @@ pub fn compress_probed(
             // A budget that ends inside a hold would carry bytes no decoder
             // reads: the stream ends at the hold's start instead. Holds
             // from there on would be header bytes for nothing.
-            let held = with_holds(compressed.clone(), holds.clone())?;
-            let room = max.saturating_sub(held.header_bytes + held.base_bytes);
+            let header_bytes = if holds.is_empty() {
+                compressed.header_bytes
+            } else {
+                holds_header(&compressed, &holds)?.len()
+            };
+            let room = max.saturating_sub(header_bytes + compressed.base_bytes);
             let end = container::hold_cut(&holds, room);
             holds.retain(|&[from, _]| (from as usize) < end);
             stream_end = Some(end);
@@ -372,17 +377,10 @@ fn with_holds(compressed: Compressed, holds: Vec<[u32; 2]>) -> Result<Compressed
     if holds.is_empty() {
         return Ok(compressed);
     }
-    let c = container::read(&compressed.bytes, &Limits::NONE)?;
-    let header = Header {
-        version: 4,
-        holds,
-        ..c.header
-    };
     // Only the header changes: the base section and the stream are
     // spliced on as they are.
-    let fresh = container::write(&header, &c.base, &[])?;
-    let header_bytes = header_len(&fresh);
-    let mut bytes = fresh[..header_bytes].to_vec();
+    let mut bytes = holds_header(&compressed, &holds)?;
+    let header_bytes = bytes.len();
     bytes.extend_from_slice(&compressed.bytes[compressed.header_bytes..]);
     let shift = header_bytes - compressed.header_bytes;
     let pass_ends = compressed.pass_ends.iter().map(|e| e + shift).collect();
@@ -392,6 +390,20 @@ fn with_holds(compressed: Compressed, holds: Vec<[u32; 2]>) -> Result<Compressed
         bytes,
         ..compressed
     })
+}
+
+/// Magic, version, length, header and checksum of `compressed` (without
+/// holds) with `holds` (any; version 4).
+fn holds_header(compressed: &Compressed, holds: &[[u32; 2]]) -> Result<Vec<u8>> {
+    let c = container::read(&compressed.bytes, &Limits::NONE)?;
+    let header = Header {
+        version: 4,
+        holds: holds.to_vec(),
+        ..c.header
+    };
+    let mut bytes = container::write(&header, &c.base, &[])?;
+    bytes.truncate(header_len(&bytes));
+    Ok(bytes)
 }
 
 /// Unit normal of the finest surface at every sample (the sum of its quads'
@@ -415,16 +427,12 @@ fn sample_normals(layout: &Layout, values: &[Coord]) -> Vec<DVec3> {
 /// squared error along the surface normal (what a surface distance sees;
 /// sliding along the surface costs nothing).
 fn cut_error(compressed: &Compressed, normals: &[DVec3], budgets: &[usize]) -> Result<f64> {
-    // The encoder's own bytes: the decoder's default limits do not apply.
-    let decoder = Decoder::new(&compressed.bytes, &Limits::NONE)?;
-    let stream = &compressed.bytes[decoder.stream_start()..];
-    let mut values = Vec::new();
-    let mut total = 0.0;
-    for &budget in budgets {
-        let cut = budget
-            .saturating_sub(decoder.stream_start())
-            .min(stream.len());
-        decoder.decode_into(&stream[..cut], None, None, &mut values);
+    let start = compressed.header_bytes + compressed.base_bytes;
+    let stream_len = compressed.bytes.len() - start;
+    let cuts: Vec<usize> = (budgets.iter())
+        .map(|b| b.saturating_sub(start).min(stream_len))
+        .collect();
+    let errors = measure_cuts(compressed, &cuts, |values| {
         let sum: f64 = values
             .iter()
             .zip(&compressed.quantized)
@@ -434,9 +442,38 @@ fn cut_error(compressed: &Compressed, normals: &[DVec3], budgets: &[usize]) -> R
                 e.dot(*n).powi(2)
             })
             .sum();
-        total += (sum / values.len().max(1) as f64 + 1e-12).ln();
-    }
-    Ok(total)
+        sum / values.len().max(1) as f64
+    })?;
+    Ok(errors.iter().map(|e| (e + 1e-12).ln()).sum())
+}
+
+/// `measure` of the decoded samples of `compressed` at each of the stream
+/// cuts `cuts` (ascending), as a decoder sees them (holds and all).
+/// Contiguous runs of cuts decode on each thread, each cut resuming from
+/// the last one's checkpoint.
+pub(crate) fn measure_cuts(
+    compressed: &Compressed,
+    cuts: &[usize],
+    measure: impl Fn(&[Coord]) -> f64 + Sync,
+) -> Result<Vec<f64>> {
+    // The encoder's own bytes: the decoder's default limits do not apply.
+    let decoder = Decoder::new(&compressed.bytes, &Limits::NONE)?;
+    let stream = &compressed.bytes[decoder.stream_start()..];
+    let run = cuts.len().div_ceil(rayon::current_num_threads()).max(1);
+    let runs: Vec<(Decoder, &[usize])> = (cuts.chunks(run))
+        .map(|run| (decoder.clone(), run))
+        .collect();
+    Ok((runs.into_par_iter())
+        .flat_map_iter(|(decoder, run)| {
+            let mut values = Vec::new();
+            run.iter()
+                .map(|&cut| {
+                    decoder.decode_into(&stream[..cut], None, None, &mut values);
+                    measure(&values)
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect())
 }
 
 /// Magic, version, length, header and checksum of a written container.
@@ -569,7 +606,7 @@ pub fn decompress(bytes: &[u8], options: &DecodeOptions) -> Result<Decompressed>
     } = decoder;
     let stream_bytes = bytes.len() - header_bytes - base_bytes;
     Ok(Decompressed {
-        decoded_stream_bytes: header.hold_cut(stream_bytes),
+        decoded_stream_bytes: status.decoded_bytes,
         stream_bytes,
         values,
         quantizer,
@@ -666,9 +703,10 @@ impl Decoder {
     }
 
     /// Decodes `stream` (the bytes after [`Self::stream_start`], cut
-    /// anywhere; a cut inside a hold decodes as the hold's start) up to `passes` passes and reconstructs `level` (default: the
-    /// finest) into `values`, one quantized value per sample id; at a level
-    /// below the finest only that level's samples hold positions.
+    /// anywhere; a cut inside a hold decodes as the hold's start) up to
+    /// `passes` passes and reconstructs `level` (default: the finest) into
+    /// `values`, one quantized value per sample id; at a level below the
+    /// finest only that level's samples hold positions.
     pub fn decode_into(
         &self,
         stream: &[u8],

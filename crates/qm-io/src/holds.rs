@@ -28,8 +28,7 @@ use qm_lift::glam::DVec3;
 use qm_lift::{Coord, Quantizer, SemiRegularMesh};
 use rayon::prelude::*;
 
-use crate::codec::{Compressed, Decoder};
-use crate::container::Limits;
+use crate::codec::{Compressed, measure_cuts};
 
 /// Where a triangle carries its probe points: the degree-2 rule of three
 /// interior points, exact for the mean square of an offset that is linear
@@ -140,16 +139,6 @@ impl Probes {
         self.samples
     }
 
-    /// Number of probe points.
-    pub fn len(&self) -> usize {
-        self.points.len()
-    }
-
-    /// Whether there are none (a mesh without area).
-    pub fn is_empty(&self) -> bool {
-        self.points.is_empty()
-    }
-
     /// Area-weighted mean squared distance along the normal of the
     /// quantized `values` from the feet.
     fn error(&self, quantizer: &Quantizer, values: &[Coord]) -> f64 {
@@ -195,25 +184,10 @@ pub(crate) fn find(compressed: &Compressed, probes: &Probes) -> Vec<[u32; 2]> {
 /// The error of `compressed` at each of the stream cuts `cuts` (ascending),
 /// as a decoder sees them (holds and all).
 fn errors(compressed: &Compressed, probes: &Probes, cuts: &[usize]) -> Vec<f64> {
-    let decoder = Decoder::new(&compressed.bytes, &Limits::NONE).expect("the encoder's own bytes");
-    let stream = &compressed.bytes[decoder.stream_start()..];
-    // Contiguous runs of cuts per thread, so that each decode resumes from
-    // the last one's checkpoint.
-    let run = cuts.len().div_ceil(rayon::current_num_threads().max(1));
-    let runs: Vec<(Decoder, &[usize])> = (cuts.chunks(run.max(1)))
-        .map(|run| (decoder.clone(), run))
-        .collect();
-    (runs.into_par_iter())
-        .flat_map_iter(|(decoder, run)| {
-            let mut values = Vec::new();
-            run.iter()
-                .map(|&cut| {
-                    decoder.decode_into(&stream[..cut], None, None, &mut values);
-                    probes.error(&compressed.quantizer, &values)
-                })
-                .collect::<Vec<_>>()
-        })
-        .collect()
+    measure_cuts(compressed, cuts, |values| {
+        probes.error(&compressed.quantizer, values)
+    })
+    .expect("the encoder's own bytes")
 }
 
 /// Holds from the errors at the cuts: from the best cut so far to the
@@ -263,7 +237,8 @@ const JOIN: f64 = 1.011_579_454_1;
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::codec::{EncodeOptions, compress};
+    use crate::codec::{Decoder, EncodeOptions, compress};
+    use crate::container::Limits;
 
     /// Largest rise of each error over the smallest before it, as a factor.
     fn worst_rise(errors: &[f64]) -> f64 {
