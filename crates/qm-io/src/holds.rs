@@ -44,10 +44,10 @@ const WEIGHTS: [[f64; 3]; 3] = [
 pub const MAX_PROBES: usize = 1 << 17;
 
 /// Most cut decodes times samples per stream: the finer the mesh, the fewer
-/// log-spaced cuts (cc_cube: 2,730 steps, about 1,260 distinct cuts, one
-/// at every byte below about 300 bytes; spot: 170; the bunny: 25, from
-/// [`MIN_CUTS`]; each plus the pass ends). Each cut is a decode with a whole
-/// inverse lifting: 2^26 made spot's encoding 2.5 times slower again.
+/// log-spaced cuts (cc_cube: 2,730 steps, one at every byte below about
+/// 300 bytes; with the pass ends, 1,264 distinct cuts; spot 185, the bunny
+/// 45, from [`MIN_CUTS`]). Each cut is a decode with a whole inverse
+/// lifting: 2^26 made spot's encoding 2.5 times slower again.
 pub const CUT_WORK: usize = 1 << 24;
 
 /// Fewest cuts tried (besides the pass ends), however fine the mesh.
