@@ -109,8 +109,9 @@ fn info_json_reports_the_layout() {
     assert!(v["passes"].as_u64().unwrap() > 10);
     assert_eq!(
         (&v["version"], &v["frames"], &v["normal_bits"]),
-        (&4.into(), &true.into(), &2.into())
+        (&5.into(), &true.into(), &2.into())
     );
+    assert_eq!(v["contexts"], "neighbours");
     // The cube's stream dips inside passes: holds, ordered and apart.
     let holds: Vec<[u64; 2]> = serde_json::from_value(v["holds"].clone()).unwrap();
     assert!(!holds.is_empty());
@@ -157,10 +158,10 @@ fn info_json_reports_the_layout() {
         (&w["frames"], &w["normal_bits"], &w["parent_frames_from"]),
         (&false.into(), &0.into(), &serde_json::Value::Null)
     );
-    // Without holds, a version 3 file.
+    // Without holds, still version 5 (the neighbour contexts).
     assert_eq!(
         (&w["version"], &w["holds"]),
-        (&3.into(), &serde_json::json!([]))
+        (&5.into(), &serde_json::json!([]))
     );
     // A fixed frame source on request, written into the header.
     let fixed = |level: &str, output: &str| {

@@ -233,13 +233,19 @@ fn crc32(data: &[u8]) -> u32 {
 }
 
 /// A valid small `.qm`: the holed grid at 10 bits (under a kilobyte), a
-/// version 4 file with holds, so that corruptions reach the holds' reader.
+/// version 5 file with holds and neighbour contexts, so that corruptions
+/// reach the holds' reader and the neighbour-context decoder.
 fn valid_qm() -> Vec<u8> {
     let mesh = qm::read_mesh(&asset("quad/holed_grid_l4.obj")).unwrap();
     let prepared = qm::detect(&mesh).unwrap();
     let options = qm::EncodeOptions::DEFAULT.with_bits(10);
     let bytes = qm::compress(&prepared.mesh, &options).unwrap().bytes;
-    assert_eq!(bytes[4], 4, "a version 4 file");
+    assert_eq!(bytes[4], 5, "a version 5 file");
+    let header = qm::io::container::read(&bytes, &qm::Limits::DEFAULT)
+        .unwrap()
+        .header;
+    assert!(!header.holds.is_empty(), "with holds");
+    assert_ne!(header.flags & qm::io::container::NEIGHBOUR_CONTEXTS, 0);
     bytes
 }
 

@@ -3,7 +3,7 @@
 mod common;
 
 use common::{QUAD_MODELS, asset, rms};
-use qm::{BasePlacement, DecodeOptions, EncodeOptions, Weighting};
+use qm::{BasePlacement, Contexts, DecodeOptions, EncodeOptions, Weighting};
 
 /// After all passes the decoder returns exactly the quantized samples, and
 /// those are the input vertices, quantized.
@@ -224,11 +224,7 @@ fn version_1_streams_still_decode() {
     let input = qm::read_mesh(&asset("quad/holed_grid_l4.obj")).unwrap();
     let prepared = qm::detect(&input).unwrap();
     let new = qm::compress(&prepared.mesh, &EncodeOptions::DEFAULT).unwrap();
-    let holds = qm::io::container::read(&new.bytes, &qm::Limits::DEFAULT)
-        .unwrap()
-        .header
-        .holds;
-    assert_eq!(new.bytes[4], if holds.is_empty() { 3 } else { 4 });
+    assert_eq!(new.bytes[4], qm::io::container::VERSION);
     assert_eq!(old.values, new.quantized);
     // Cut, it decodes too, to something coarser.
     let cut = qm::decompress(&v1[..700], &DecodeOptions::default()).unwrap();
@@ -250,7 +246,8 @@ fn first_version_2_frames_still_decode() {
     let options = EncodeOptions::DEFAULT
         .with_frame_source(qm::Frames::ParentsFrom(3))
         .with_base(BasePlacement::Front)
-        .with_holds(false);
+        .with_holds(false)
+        .with_contexts(Contexts::Tree);
     let new = qm::compress(&prepared.mesh, &options).unwrap();
     assert_eq!(new.bytes, file);
     assert_eq!(old.values, new.quantized);
@@ -264,8 +261,9 @@ fn first_version_2_frames_still_decode() {
 /// `tests/data/cc_dodecahedron_v3.qm` is `qm compress
 /// assets/quad/cc_dodecahedron.obj` from the first version 3 build (10 low
 /// bits of each base value in the stream). The
-/// encoder must still write it byte for byte without holds (with them it
-/// writes version 4), it must decode exactly, and its cuts must decode too.
+/// encoder must still write it byte for byte with the tree contexts and
+/// without holds (with them it writes version 4), it must decode exactly,
+/// and its cuts must decode too.
 #[test]
 fn first_version_3_files_still_decode() {
     let file = std::fs::read(asset("../tests/data/cc_dodecahedron_v3.qm")).unwrap();
@@ -275,7 +273,9 @@ fn first_version_3_files_still_decode() {
     assert_eq!(c.base.low_bits, 10, "base bits in the stream");
     let input = qm::read_mesh(&asset("quad/cc_dodecahedron.obj")).unwrap();
     let prepared = qm::detect(&input).unwrap();
-    let options = EncodeOptions::DEFAULT.with_holds(false);
+    let options = EncodeOptions::DEFAULT
+        .with_holds(false)
+        .with_contexts(Contexts::Tree);
     let new = qm::compress(&prepared.mesh, &options).unwrap();
     assert_eq!(new.bytes, file);
     assert_eq!(old.values, new.quantized);
@@ -288,7 +288,8 @@ fn first_version_3_files_still_decode() {
 /// (every plane of the stream weighs less than the base values' lowest bit)
 /// or some, the last pass gives the quantized samples back
 /// exactly, and every cut decodes; the same mesh with the base values all
-/// in front (version 2) decodes to the same.
+/// in front (version 2, or 5 with the neighbour contexts) decodes to the
+/// same.
 #[test]
 fn base_bits_in_the_stream_round_trip() {
     use qm::lift::glam::DVec3;
@@ -320,17 +321,21 @@ fn base_bits_in_the_stream_round_trip() {
         (&sphere, 16, weighting(0, 2)),
         (&sphere, 12, weighting(1, 0)),
     ] {
-        // Without holds, which would make both version 4.
+        // Without holds, which would make the tree contexts' files version 4.
         let options = EncodeOptions::DEFAULT
             .with_bits(bits)
             .with_weighting(weighting)
             .with_holds(false);
         let stream = qm::compress(mesh, &options).unwrap();
         let front = qm::compress(mesh, &options.with_base(BasePlacement::Front)).unwrap();
+        let tree = options.with_contexts(Contexts::Tree);
+        let tree_stream = qm::compress(mesh, &tree).unwrap();
+        let tree_front = qm::compress(mesh, &tree.with_base(BasePlacement::Front)).unwrap();
         let c = qm::io::container::read(&stream.bytes, &qm::Limits::DEFAULT).unwrap();
         low_bits.push(c.base.low_bits);
-        assert_eq!((stream.bytes[4], front.bytes[4]), (3, 2));
-        for compressed in [&stream, &front] {
+        let versions = [&stream, &front, &tree_stream, &tree_front].map(|c| c.bytes[4]);
+        assert_eq!(versions, [5, 5, 3, 2]);
+        for compressed in [&stream, &front, &tree_stream, &tree_front] {
             let d = qm::decompress(&compressed.bytes, &DecodeOptions::default()).unwrap();
             assert_eq!(d.values, compressed.quantized, "{bits} bits, {weighting:?}");
         }

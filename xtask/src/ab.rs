@@ -14,7 +14,8 @@ use std::path::PathBuf;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use qm::{
-    BasePlacement, DecodeOptions, EncodeOptions, Frames, RemeshOptions, UpdateRule, Weighting,
+    BasePlacement, Contexts, DecodeOptions, EncodeOptions, Frames, RemeshOptions, UpdateRule,
+    Weighting,
 };
 
 use crate::rd::{self, AtPsnr, bytes_at};
@@ -30,8 +31,8 @@ const USAGE: &str = "usage: cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [-
     SPEC: comma-separated frames=auto|off|LEVEL, normal=BITS, weight=BITS, update=none|paper|mean,\n  \
     remesh=normal|plain (with or without the remesher's normal placement),\n  \
     level=L (remesh level), spv=N (remesh samples per input vertex), base=front|stream,\n  \
-    holds=on|off\n  \
-    (A defaults to frames=off,normal=0, the version 1 coding; B to the defaults)";
+    holds=on|off, contexts=tree|neighbours\n  \
+    (A defaults to frames=off,normal=0,contexts=tree, the version 1 coding; B to the defaults)";
 
 /// Parses a setting list into encoder and remesher options.
 fn options(spec: &str) -> Result<(EncodeOptions, RemeshOptions), String> {
@@ -91,6 +92,11 @@ fn options(spec: &str) -> Result<(EncodeOptions, RemeshOptions), String> {
                 "off" => false,
                 _ => return Err(format!("{item}: on or off")),
             }),
+            "contexts" => o.with_contexts(match value {
+                "tree" => Contexts::Tree,
+                "neighbours" => Contexts::Neighbours,
+                _ => return Err(format!("{item}: tree or neighbours")),
+            }),
             _ => return Err(format!("{item}: unknown setting\n{USAGE}")),
         };
     }
@@ -99,7 +105,7 @@ fn options(spec: &str) -> Result<(EncodeOptions, RemeshOptions), String> {
 
 pub fn run(args: &[String]) -> Result<(), String> {
     let mut models = Vec::new();
-    let mut a = "frames=off,normal=0".to_string();
+    let mut a = "frames=off,normal=0,contexts=tree".to_string();
     let mut b = String::new();
     let mut out = None;
     let mut i = 0;

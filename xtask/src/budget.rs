@@ -83,6 +83,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
             &tree.gather(&data),
             Some(base),
             header.stream_params().weighting,
+            header.stream_params().contexts,
             None,
         );
         let first = c.header_bytes + c.base_bytes;

@@ -53,7 +53,18 @@
 //! node's other coordinates are, and how many of its earlier siblings are;
 //! signs by the parent's sign; zerotree bits by kind, level and the node's
 //! own significance; refinement bits by coordinate and whether this is the
-//! first refinement.
+//! first refinement. With [`Contexts::Neighbours`] (the default) the
+//! coefficient's neighbours on its own level (`ZeroTree::neighbours`: the
+//! grid points around it, in the surface rather than up its tree) add to
+//! three of these: how many of them are significant in the coordinate (0 to
+//! 3 or more) to the significance bits, whether the signs of those lean
+//! positive or negative to the sign bits, and how many of them have opened
+//! their subtrees (0 to 2 or more) to the zerotree bits. Both sides keep
+//! these counts up to date as coordinates become significant and subtrees
+//! open, so a context costs no search. Detail is spatially clustered (a
+//! crease, an ear, a rough patch of a scan), which a tree alone sees only
+//! through the parent and the siblings. Measured on the development models
+//! (`cargo xtask ab --a contexts=tree`), see the README.
 //!
 //! **Reconstruction.** An unresolved coefficient is put at the centre of its
 //! uncertainty interval, so more bits never make the expected error larger
@@ -135,6 +146,17 @@ pub const BASE_EXTRA_BITS: u32 = 1;
 /// value stays in the base section; quantized values have at most 24 bits).
 pub const MAX_BASE_BITS: u32 = 30;
 
+/// Which contexts model the bits (see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Contexts {
+    /// Tree contexts only: the parent, the node's other coordinates and its
+    /// earlier siblings (`.qm` format versions 1 to 4).
+    Tree,
+    /// The tree contexts and the same-level neighbours.
+    #[default]
+    Neighbours,
+}
+
 /// What the decoder must know to follow the encoder: stored in the header.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct StreamParams {
@@ -149,6 +171,8 @@ pub struct StreamParams {
     /// [`Weighting::max_base_bits`] of `planes`), or 0 when the base values
     /// are all elsewhere.
     pub base_bits: u32,
+    /// The context model.
+    pub contexts: Contexts,
 }
 
 /// Result of encoding.
@@ -199,11 +223,13 @@ pub fn encode(
     coefs: &[Coef],
     base: Option<BaseBits<'_>>,
     weighting: Weighting,
+    contexts: Contexts,
     max_passes: Option<u32>,
 ) -> Encoded {
     let mut writer = BitWriter::new();
     let mut pass_ends = Vec::new();
-    let params = code_passes(tree, coefs, base, weighting, max_passes, &mut writer, |w| {
+    let plan = plan(tree, coefs, base, weighting, contexts, max_passes);
+    let params = code_passes(tree, coefs, base, plan, &mut writer, |w| {
         pass_ends.push(w.len_needed())
     });
     let bytes = writer.finish();
@@ -217,18 +243,16 @@ pub fn encode(
     }
 }
 
-/// Plans the stream and codes its passes through `coder`, calling
+/// Codes the passes of a planned stream through `coder`, calling
 /// `after_pass` after each; the stream parameters.
 fn code_passes<C: Coder>(
     tree: &ZeroTree,
     coefs: &[Coef],
     base: Option<BaseBits<'_>>,
-    weighting: Weighting,
-    max_passes: Option<u32>,
+    (params, below): (StreamParams, Vec<i32>),
     coder: &mut C,
     mut after_pass: impl FnMut(&C),
 ) -> StreamParams {
-    let (params, below) = plan(tree, coefs, base, weighting, max_passes);
     let mut oracle = Truth {
         coefs,
         below: &below,
@@ -250,6 +274,7 @@ fn plan(
     coefs: &[Coef],
     base: Option<BaseBits<'_>>,
     weighting: Weighting,
+    contexts: Contexts,
     max_passes: Option<u32>,
 ) -> (StreamParams, Vec<i32>) {
     assert_eq!(coefs.len(), tree.len(), "one coefficient per tree node");
@@ -291,6 +316,7 @@ fn plan(
         passes,
         weighting,
         base_bits: base.map_or(0, |b| weighting.max_base_bits(planes, big_l).min(b.most)),
+        contexts,
     };
     (params, below)
 }
@@ -511,6 +537,7 @@ pub fn bit_budget(
     coefs: &[Coef],
     base: Option<BaseBits<'_>>,
     weighting: Weighting,
+    contexts: Contexts,
     max_passes: Option<u32>,
 ) -> Vec<BitBudget> {
     let mut tally = Tally {
@@ -518,7 +545,8 @@ pub fn bit_budget(
         budget: BitBudget::default(),
     };
     let mut budgets = Vec::new();
-    code_passes(tree, coefs, base, weighting, max_passes, &mut tally, |t| {
+    let plan = plan(tree, coefs, base, weighting, contexts, max_passes);
+    code_passes(tree, coefs, base, plan, &mut tally, |t| {
         budgets.push(t.budget.clone())
     });
     budgets
@@ -584,13 +612,22 @@ fn level_class(level: u32, max_level: u32) -> usize {
     ((max_level - level) as usize).min(LEVEL_CLASSES - 1)
 }
 
+/// Values of the neighbour part of a significance context (significant
+/// neighbours 0, 1, 2, 3 or more), of a sign context (no lean, positive,
+/// negative) and of a zerotree context (open neighbours 0, 1, 2 or more);
+/// always 0 with [`Contexts::Tree`].
+const NEIGHBOUR_SIG: usize = 4;
+const NEIGHBOUR_SIGN: usize = 3;
+const NEIGHBOUR_OPEN: usize = 3;
+
 #[derive(Clone)]
 struct Models {
     /// [kind][level class][coord][parent state 3][own sig 3][siblings 3]
+    /// [neighbours NEIGHBOUR_SIG]
     significance: Vec<Context>,
-    /// [coord][parent sign state 3]
-    sign: [Context; 9],
-    /// [kind][level class][own sig count 4]
+    /// [coord][parent sign state 3][neighbours NEIGHBOUR_SIGN]
+    sign: Vec<Context>,
+    /// [kind][level class][own sig count 4][neighbours NEIGHBOUR_OPEN]
     zerotree: Vec<Context>,
     /// [coord][first refinement?]
     refine: [Context; 6],
@@ -601,12 +638,51 @@ struct Models {
 impl Models {
     fn new() -> Self {
         Models {
-            significance: vec![Context::default(); 2 * LEVEL_CLASSES * 3 * 3 * 3 * 3],
-            sign: [Context::default(); 9],
-            zerotree: vec![Context::default(); 2 * LEVEL_CLASSES * 4],
+            significance: vec![
+                Context::default();
+                2 * LEVEL_CLASSES * 3 * 3 * 3 * 3 * NEIGHBOUR_SIG
+            ],
+            sign: vec![Context::default(); 3 * 3 * NEIGHBOUR_SIGN],
+            zerotree: vec![Context::default(); 2 * LEVEL_CLASSES * 4 * NEIGHBOUR_OPEN],
             refine: [Context::default(); 6],
             base: vec![Context::default(); 3 * MAX_BASE_BITS as usize],
         }
+    }
+}
+
+/// What a node's neighbours show, kept up to date by coder and decoder
+/// alike ([`Contexts::Neighbours`]).
+#[derive(Clone, Copy, Default)]
+struct Around {
+    /// Neighbours significant in each coordinate.
+    significant: [u8; 3],
+    /// Their signs added up (+1 positive, -1 negative), per coordinate.
+    signs: [i8; 3],
+    /// Neighbours whose subtrees are open.
+    open: u8,
+}
+
+impl Around {
+    /// The neighbour part of a significance context of coordinate `c`.
+    #[inline]
+    fn significance(&self, c: usize) -> usize {
+        (self.significant[c] as usize).min(NEIGHBOUR_SIG - 1)
+    }
+
+    /// The neighbour part of a sign context of coordinate `c`.
+    #[inline]
+    fn sign(&self, c: usize) -> usize {
+        match self.signs[c] {
+            0 => 0,
+            s if s > 0 => 1,
+            _ => 2,
+        }
+    }
+
+    /// The neighbour part of a zerotree context.
+    #[inline]
+    fn open(&self) -> usize {
+        (self.open as usize).min(NEIGHBOUR_OPEN - 1)
     }
 }
 
@@ -621,6 +697,8 @@ struct State {
     neg: Vec<u8>,
     /// Whether the node's subtree has been opened.
     open: Vec<bool>,
+    /// What each node's neighbours show (empty with [`Contexts::Tree`]).
+    around: Vec<Around>,
     /// Per level, significant coordinates in the order they became so, with
     /// what is known of their magnitudes.
     refine_lists: Vec<Vec<Significant>>,
@@ -648,6 +726,10 @@ impl State {
             sig: vec![0; n],
             neg: vec![0; n],
             open: vec![false; n],
+            around: match params.contexts {
+                Contexts::Tree => Vec::new(),
+                Contexts::Neighbours => vec![Around::default(); n],
+            },
             refine_lists: vec![Vec::new(); tree.max_level() as usize],
             models: Models::new(),
             frontier: Vec::new(),
@@ -767,11 +849,14 @@ impl State {
                                 .count()
                                 .min(2)
                         };
-                        let ctx = ((((kind * LEVEL_CLASSES + class) * 3 + c) * 3 + parent_state)
+                        let around = self.around.get(k).copied().unwrap_or_default();
+                        let ctx = (((((kind * LEVEL_CLASSES + class) * 3 + c) * 3 + parent_state)
                             * 3
                             + own)
                             * 3
-                            + siblings;
+                            + siblings)
+                            * NEIGHBOUR_SIG
+                            + around.significance(c);
                         let truth = oracle.magnitude(k, c) >> b != 0;
                         match coder.code(
                             &mut self.models.significance[ctx],
@@ -785,13 +870,15 @@ impl State {
                                 break 'levels;
                             }
                         }
-                        let sign_ctx = c * 3
+                        let sign_ctx = (c * 3
                             + match parent {
                                 NO_PARENT => 0,
                                 p if self.sig[p as usize] & (1 << c) == 0 => 0,
                                 p if self.neg[p as usize] & (1 << c) != 0 => 2,
                                 _ => 1,
-                            };
+                            })
+                            * NEIGHBOUR_SIGN
+                            + around.sign(c);
                         let negative = match coder.code(
                             &mut self.models.sign[sign_ctx],
                             oracle.negative(k, c),
@@ -807,6 +894,14 @@ impl State {
                         if negative {
                             self.neg[k] |= 1 << c;
                         }
+                        if !self.around.is_empty() {
+                            for &m in tree.neighbours(k) {
+                                let a = &mut self.around[m as usize];
+                                a.significant[c] = a.significant[c].saturating_add(1);
+                                let step = if negative { -1 } else { 1 };
+                                a.signs[c] = a.signs[c].saturating_add(step);
+                            }
+                        }
                         self.refine_lists[level as usize - 1].push(Significant {
                             node: k as u32,
                             coord: c as u8,
@@ -820,14 +915,25 @@ impl State {
                     continue;
                 }
                 if !self.open[k] {
-                    let ctx =
-                        (kind * LEVEL_CLASSES + class) * 4 + self.sig[k].count_ones() as usize;
+                    let around = self.around.get(k).map_or(0, Around::open);
+                    let ctx = ((kind * LEVEL_CLASSES + class) * 4
+                        + self.sig[k].count_ones() as usize)
+                        * NEIGHBOUR_OPEN
+                        + around;
                     match coder.code(
                         &mut self.models.zerotree[ctx],
                         oracle.below(k) >= plane,
                         Sym::Zerotree(class),
                     ) {
-                        Ok(true) => self.open[k] = true,
+                        Ok(true) => {
+                            self.open[k] = true;
+                            if !self.around.is_empty() {
+                                for &m in tree.neighbours(k) {
+                                    let a = &mut self.around[m as usize];
+                                    a.open = a.open.saturating_add(1);
+                                }
+                            }
+                        }
                         Ok(false) => continue,
                         Err(e) => {
                             result = Err(e);
@@ -986,13 +1092,16 @@ mod tests {
                 normal_bits: 0,
             },
         ] {
-            let c = coefs(&tree, 99);
-            let enc = encode(&tree, &c, None, weighting, None);
-            let dec = decode(&tree, enc.params, &enc.bytes, None);
-            assert!(!dec.truncated);
-            assert_eq!(dec.passes, enc.params.planes);
-            assert_eq!(dec.coefs, c);
-            assert!(dec.base_low.is_empty());
+            for contexts in [Contexts::Tree, Contexts::Neighbours] {
+                let c = coefs(&tree, 99);
+                let enc = encode(&tree, &c, None, weighting, contexts, None);
+                assert_eq!(enc.params.contexts, contexts);
+                let dec = decode(&tree, enc.params, &enc.bytes, None);
+                assert!(!dec.truncated);
+                assert_eq!(dec.passes, enc.params.planes);
+                assert_eq!(dec.coefs, c);
+                assert!(dec.base_low.is_empty());
+            }
         }
     }
 
@@ -1025,21 +1134,21 @@ mod tests {
             ),
             (zeros, Weighting::default(), 0),
         ] {
-            let enc = encode(&tree, &c, all_bits(&b), weighting, None);
+            let enc = encode_all_bits(&tree, &c, &b, weighting);
             assert_eq!(enc.params.base_bits, bits, "{weighting:?}");
             let dec = decode(&tree, enc.params, &enc.bytes, None);
             assert_eq!(dec.coefs, c);
             assert_eq!(join_base(&b, &dec, bits), b, "{weighting:?}");
             // The high parts alone cost nothing in the stream: the same
             // stream as without base bits plus the low bits.
-            let without = encode(&tree, &c, None, weighting, None);
+            let without = encode(&tree, &c, None, weighting, Contexts::default(), None);
             assert_eq!(without.params.planes, enc.params.planes);
             assert!(without.bytes.len() <= enc.bytes.len());
             assert_eq!(bits == 0, without.bytes == enc.bytes);
             // Fewer bits on request, and the rest of the stream unchanged.
             for most in [0, 1, bits / 2] {
                 let base = Some(BaseBits { values: &b, most });
-                let fewer = encode(&tree, &c, base, weighting, None);
+                let fewer = encode(&tree, &c, base, weighting, Contexts::default(), None);
                 assert_eq!(fewer.params.base_bits, most.min(bits));
                 let dec = decode(&tree, fewer.params, &fewer.bytes, None);
                 assert_eq!(dec.coefs, c);
@@ -1047,6 +1156,12 @@ mod tests {
                 assert!(fewer.bytes.len() <= enc.bytes.len());
             }
         }
+    }
+
+    /// Encodes `c` with all of `b`'s low bits the stream has passes for,
+    /// default contexts, every pass.
+    fn encode_all_bits(tree: &ZeroTree, c: &[Coef], b: &[Coef], weighting: Weighting) -> Encoded {
+        encode(tree, c, all_bits(b), weighting, Contexts::default(), None)
     }
 
     /// All the low bits the stream has passes for.
@@ -1066,7 +1181,7 @@ mod tests {
         let b = base(&tree, 8);
         let c = coefs(&tree, 9);
         let weighting = Weighting::LEVELS.with_normal_bits(2);
-        let enc = encode(&tree, &c, all_bits(&b), weighting, None);
+        let enc = encode_all_bits(&tree, &c, &b, weighting);
         let (planes, k) = (enc.params.planes, enc.params.base_bits);
         let s0 = weighting.base_shift(3);
         assert_eq!(k, planes - s0);
@@ -1092,6 +1207,7 @@ mod tests {
             &vec![[0; 3]; tree.len()],
             None,
             Weighting::default(),
+            Contexts::default(),
             None,
         );
         assert_eq!(enc.params.planes, 0);
@@ -1110,8 +1226,12 @@ mod tests {
         };
         // Base values weigh as much as the coefficients here: with the level
         // weighting, a base value counts 2^L times a finest detail.
-        for base in [None, all_bits(&b)] {
-            let enc = encode(&tree, &c, base, flat, None);
+        let models = [Contexts::Tree, Contexts::Neighbours];
+        let runs = [None, all_bits(&b)]
+            .into_iter()
+            .flat_map(|b| models.map(|m| (b, m)));
+        for (base, contexts) in runs {
+            let enc = encode(&tree, &c, base, flat, contexts, None);
             let k = enc.params.base_bits;
             let mut last = f64::INFINITY;
             for cut in (0..=enc.bytes.len())
@@ -1134,8 +1254,15 @@ mod tests {
         let tree = ZeroTree::new(&layout(4));
         let (c, b) = (coefs(&tree, 23), base(&tree, 24));
         let weighting = Weighting::LEVELS.with_normal_bits(2);
-        let enc = encode(&tree, &c, all_bits(&b), weighting, None);
-        let budgets = bit_budget(&tree, &c, all_bits(&b), weighting, None);
+        let enc = encode_all_bits(&tree, &c, &b, weighting);
+        let budgets = bit_budget(
+            &tree,
+            &c,
+            all_bits(&b),
+            weighting,
+            Contexts::default(),
+            None,
+        );
         assert_eq!(budgets.len(), enc.pass_ends.len());
         // Tolerance: the range coder's flush, a few bytes; the base bits
         // alone are far more, so leaving them out would show.
@@ -1177,6 +1304,7 @@ mod tests {
             &c,
             all_bits(&b),
             Weighting::LEVELS.with_normal_bits(2),
+            Contexts::default(),
             None,
         );
         assert!(enc.params.base_bits > 0);
@@ -1198,7 +1326,14 @@ mod tests {
         }
         assert!(resumed > 50, "checkpoints used {resumed} times");
         // A checkpoint of another stream, or past a pass limit, is ignored.
-        let other = encode(&tree, &coefs(&tree, 22), None, Weighting::default(), None);
+        let other = encode(
+            &tree,
+            &coefs(&tree, 22),
+            None,
+            Weighting::default(),
+            Contexts::default(),
+            None,
+        );
         let fresh = decode(&tree, other.params, &other.bytes, None);
         let (got, _) = decode_resuming(&tree, other.params, &other.bytes, None, checkpoint.clone());
         assert_eq!(got.coefs, fresh.coefs);
@@ -1211,8 +1346,22 @@ mod tests {
     fn fewer_passes_are_a_prefix_of_more() {
         let tree = ZeroTree::new(&layout(3));
         let c = coefs(&tree, 11);
-        let full = encode(&tree, &c, None, Weighting::default(), None);
-        let four = encode(&tree, &c, None, Weighting::default(), Some(4));
+        let full = encode(
+            &tree,
+            &c,
+            None,
+            Weighting::default(),
+            Contexts::default(),
+            None,
+        );
+        let four = encode(
+            &tree,
+            &c,
+            None,
+            Weighting::default(),
+            Contexts::default(),
+            Some(4),
+        );
         assert_eq!(four.params.passes, 4);
         let a = decode(&tree, four.params, &four.bytes, None);
         let b = decode(&tree, full.params, &full.bytes, Some(4));

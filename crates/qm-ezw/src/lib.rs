@@ -12,8 +12,8 @@ mod ezw;
 mod range;
 
 pub use ezw::{
-    BaseBits, BitBudget, Checkpoint, Coef, Cost, Decoded, Encoded, LEVEL_CLASSES, MAX_BASE_BITS,
-    StreamParams, Weighting, bit_budget, decode, decode_resuming, encode,
+    BaseBits, BitBudget, Checkpoint, Coef, Contexts, Cost, Decoded, Encoded, LEVEL_CLASSES,
+    MAX_BASE_BITS, StreamParams, Weighting, bit_budget, decode, decode_resuming, encode,
 };
 pub use qm_tree::{self, ZeroTree};
 pub use range::{BitReader, BitWriter, Context, ReaderSnapshot, Truncated};

@@ -8,7 +8,7 @@
 //! step on whatever prefix of the stream is present, base values with
 //! missing low bits at the centre of what is left.
 
-use qm_ezw::{Weighting, ZeroTree};
+use qm_ezw::{Contexts, Weighting, ZeroTree};
 use qm_lift::glam::DVec3;
 use qm_lift::{BaseMesh, Coord, Layout, Lifting, Quantizer, SemiRegularMesh, UpdateRule};
 use rayon::prelude::*;
@@ -43,6 +43,9 @@ pub struct EncodeOptions {
     /// would decode worse than a shorter one (see [`crate::holds`];
     /// default: on).
     pub holds: bool,
+    /// The bit-plane coder's context model (default: with the neighbours;
+    /// [`Contexts::Tree`] writes the format versions before 5).
+    pub contexts: Contexts,
 }
 
 /// Where the encoder puts the low bits of the base (level-0) values.
@@ -96,6 +99,7 @@ impl EncodeOptions {
         frames: Frames::Auto,
         base: BasePlacement::Stream,
         holds: true,
+        contexts: Contexts::Neighbours,
     };
 
     /// Sets the quantization bits.
@@ -149,6 +153,12 @@ impl EncodeOptions {
     /// Turns holds on or off.
     pub const fn with_holds(mut self, holds: bool) -> Self {
         self.holds = holds;
+        self
+    }
+
+    /// Sets the context model.
+    pub const fn with_contexts(mut self, contexts: Contexts) -> Self {
+        self.contexts = contexts;
         self
     }
 }
@@ -331,8 +341,19 @@ fn compress_with(
             }),
         ),
     };
+    let (version, context_flag) = match options.contexts {
+        Contexts::Tree => (version, 0),
+        Contexts::Neighbours => (5, container::NEIGHBOUR_CONTEXTS),
+    };
 
-    let encoded = qm_ezw::encode(&tree, &coefs, in_stream, options.weighting, options.passes);
+    let encoded = qm_ezw::encode(
+        &tree,
+        &coefs,
+        in_stream,
+        options.weighting,
+        options.contexts,
+        options.passes,
+    );
     let low_bits = encoded.params.base_bits;
     let header = Header {
         version,
@@ -348,7 +369,7 @@ fn compress_with(
         base_faces: base.faces().len() as u32,
         planes: encoded.params.planes as u8,
         passes: encoded.params.passes as u8,
-        flags: low_bits,
+        flags: low_bits | context_flag,
         holds: Vec::new(),
     };
     let section = BaseSection {
@@ -371,7 +392,7 @@ fn compress_with(
     })
 }
 
-/// `compressed` (without holds) rewritten with `holds` in a version 4
+/// `compressed` (without holds) rewritten with `holds` in a version 4 (or 5)
 /// header; unchanged if there are none.
 fn with_holds(compressed: Compressed, holds: Vec<[u32; 2]>) -> Result<Compressed> {
     if holds.is_empty() {
@@ -393,11 +414,11 @@ fn with_holds(compressed: Compressed, holds: Vec<[u32; 2]>) -> Result<Compressed
 }
 
 /// Magic, version, length, header and checksum of `compressed` (without
-/// holds) with `holds` (any; version 4).
+/// holds) with `holds` (any; version 4, or 5 as before).
 fn holds_header(compressed: &Compressed, holds: &[[u32; 2]]) -> Result<Vec<u8>> {
     let c = container::read(&compressed.bytes, &Limits::NONE)?;
     let header = Header {
-        version: 4,
+        version: c.header.version.max(4),
         holds: holds.to_vec(),
         ..c.header
     };
@@ -861,8 +882,9 @@ mod tests {
     #[test]
     fn frame_sources_round_trip_and_auto_keeps_the_closer_one() {
         let mesh = sphere(5);
-        let with =
-            |frames| compress(&mesh, &EncodeOptions::DEFAULT.with_frame_source(frames)).unwrap();
+        // Without holds: the choice is made before them, on the bare streams.
+        let options = EncodeOptions::DEFAULT.with_holds(false);
+        let with = |frames| compress(&mesh, &options.with_frame_source(frames)).unwrap();
         let (from3, from4, auto) = (
             with(Frames::ParentsFrom(3)),
             with(Frames::ParentsFrom(4)),

@@ -5,7 +5,7 @@
 //! | 4 | magic `89 51 4D 0A` (`\x89QM\n`) |
 //! | 1 | format version ([`VERSION`]) |
 //! | 2 | header length `H`, little endian |
-//! | `H` | [`Header`], bincode (standard configuration: varints); version 4: then its [`Header::holds`], bincode, each as the gap from the last hold's end and its length |
+//! | `H` | [`Header`], bincode (standard configuration: varints); version 4 and later: then its [`Header::holds`], bincode, each as the gap from the last hold's end and its length |
 //! | 4 | CRC-32 of everything above |
 //! | 4 | base section length `B`, little endian |
 //! | `B` | base mesh: face corners, then the level-0 scaling values, predicted and arithmetic-coded (see `basecode`; version 1: bincode, delta-coded; version 3: without their low bits, which are in the stream) |
@@ -26,10 +26,13 @@ pub const MAGIC: [u8; 4] = [0x89, b'Q', b'M', b'\n'];
 /// The newest container version this build writes. Version 3 moved the
 /// low bits of the base values into the embedded stream
 /// (how many: [`Header::flags`]); version 4 added the stream's holds
-/// ([`Header::holds`]). The encoder writes version 4 only when a stream has
-/// holds, version 3 otherwise, and version 2 (all base bits in the base
-/// section) on request.
-pub const VERSION: u8 = 4;
+/// ([`Header::holds`]); version 5 the bit-plane coder's neighbour contexts
+/// ([`NEIGHBOUR_CONTEXTS`] in [`Header::flags`]). The encoder writes
+/// version 5 with its default, neighbour contexts, holds or not; with the
+/// tree contexts alone ([`qm_ezw::Contexts::Tree`]) it writes what it did
+/// before: version 4 when a stream has holds, version 3 otherwise, and
+/// version 2 (all base bits in the base section) on request.
+pub const VERSION: u8 = 5;
 
 /// Largest [`Header::frames`]: parent-quad normals from level
 /// `MAX_LEVEL + 1` on, that is never.
@@ -79,8 +82,9 @@ pub struct Header {
     /// Passes the stream holds (at most `planes`).
     pub passes: u8,
     /// Version 3: the low bits of each base value the stream carries
-    /// ([`qm_ezw::StreamParams::base_bits`]) in bits 0 to 4; the other bits
-    /// (all of them before version 3) are reserved, zero.
+    /// ([`qm_ezw::StreamParams::base_bits`]) in bits 0 to 4. Version 5:
+    /// [`NEIGHBOUR_CONTEXTS`]. The other bits (all of them before version 3)
+    /// are reserved, zero.
     pub flags: u32,
     /// Version 4: cuts of the stream that decode as a shorter cut. A
     /// stream prefix of `n` bytes with `from < n < to` for a hold
@@ -104,6 +108,19 @@ pub fn hold_cut(holds: &[[u32; 2]], n: usize) -> usize {
 
 /// The flags' bits that hold the base bits in the stream (version 3).
 pub const BASE_BITS_MASK: u32 = 0x1f;
+
+/// The flag of a stream coded with [`qm_ezw::Contexts::Neighbours`]
+/// (version 5; without it, [`qm_ezw::Contexts::Tree`]).
+pub const NEIGHBOUR_CONTEXTS: u32 = 0x20;
+
+/// The flags a header of `version` may set.
+fn known_flags(version: u8) -> u32 {
+    match version {
+        0..=2 => 0,
+        3 | 4 => BASE_BITS_MASK,
+        _ => BASE_BITS_MASK | NEIGHBOUR_CONTEXTS,
+    }
+}
 
 impl Header {
     /// The first level whose frames use parent-quad normals, `None` for
@@ -129,11 +146,17 @@ impl Header {
         } else {
             0
         };
+        let contexts = if self.flags & known_flags(self.version) & NEIGHBOUR_CONTEXTS != 0 {
+            qm_ezw::Contexts::Neighbours
+        } else {
+            qm_ezw::Contexts::Tree
+        };
         qm_ezw::StreamParams {
             planes: self.planes as u32,
             passes: self.passes as u32,
             weighting,
             base_bits,
+            contexts,
         }
     }
 }
@@ -216,8 +239,8 @@ fn config() -> bincode::config::Configuration {
     bincode::config::standard()
 }
 
-/// Writes a complete container of version `header.version` (2 to 4; holds
-/// need version 4).
+/// Writes a complete container of version `header.version` (2 to 5; holds
+/// need version 4 or later, neighbour contexts version 5).
 pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u8>> {
     let low_bits = header.stream_params().base_bits;
     if header.version < 4 && !header.holds.is_empty() {
@@ -226,6 +249,12 @@ pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u
         });
     }
     check_holds(&header.holds)?;
+    let unknown = header.flags & !known_flags(header.version);
+    if unknown != 0 {
+        return Err(Error::Malformed {
+            what: format!("flags {unknown:#x} in a version {} header", header.version),
+        });
+    }
     if !(2..=VERSION).contains(&header.version) || base.low_bits != low_bits {
         return Err(Error::Malformed {
             what: format!(
@@ -360,7 +389,7 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
             version,
             ..decode_exact(header_raw, "header")?
         },
-        4 => {
+        4 | 5 => {
             let (header, relative): (Header, Vec<[u32; 2]>) = decode_exact(header_raw, "header")?;
             let mut end = 0u32;
             let mut holds = Vec::with_capacity(relative.len());
@@ -552,7 +581,7 @@ fn check_header(h: &Header, limits: &Limits) -> Result<()> {
             what: format!("{} passes of {} planes", h.passes, h.planes),
         });
     }
-    let known = if h.version >= 3 { BASE_BITS_MASK } else { 0 };
+    let known = known_flags(h.version);
     if h.flags & !known != 0 {
         return Err(Error::Malformed {
             what: format!("unknown header flags {:#x}", h.flags & !known),
@@ -752,17 +781,32 @@ mod tests {
         ));
     }
 
-    /// More base bits in the stream than it has planes for, or unknown
-    /// flags, are refused with what is wrong.
+    /// More base bits in the stream than it has planes for are refused
+    /// with what is wrong; so are flags a version does not have, by the
+    /// writer (the reader's refusal is in the hostile corpus,
+    /// `qm-v4-neighbour-flag.qm` and `qm-header-flags-set.qm`).
     #[test]
     fn impossible_base_bits_and_unknown_flags_are_refused() {
         let (mut header, base) = sample();
-        for (flags, expect) in [(11, "planes for 10"), (0x20 | 10, "flags 0x20")] {
-            header.flags = flags;
-            let mut base = base.clone();
-            base.low_bits = header.stream_params().base_bits;
-            let bytes = write(&header, &base, b"").unwrap();
-            match read(&bytes, &Limits::DEFAULT) {
+        header.flags = 11;
+        let mut base = base.clone();
+        base.low_bits = header.stream_params().base_bits;
+        let bytes = write(&header, &base, b"").unwrap();
+        match read(&bytes, &Limits::DEFAULT) {
+            Err(Error::Malformed { what }) => assert!(what.contains("planes for 10"), "{what}"),
+            other => panic!("{other:?}"),
+        }
+        base.low_bits = 10;
+        for (version, flags, expect) in [
+            (5, 0x40 | 10, "flags 0x40 in a version 5"),
+            (4, NEIGHBOUR_CONTEXTS | 10, "flags 0x20 in a version 4"),
+        ] {
+            let header = Header {
+                version,
+                flags,
+                ..header.clone()
+            };
+            match write(&header, &base, b"") {
                 Err(Error::Malformed { what }) => assert!(what.contains(expect), "{what}"),
                 other => panic!("flags {flags:#x}: {other:?}"),
             }

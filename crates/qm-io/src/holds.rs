@@ -275,7 +275,7 @@ mod tests {
         let header = crate::container::read(&held.bytes, &Limits::NONE)
             .unwrap()
             .header;
-        assert_eq!(header.version, 4);
+        assert_eq!(header.version, 5);
         let decoder = Decoder::new(&held.bytes, &Limits::NONE).unwrap();
         let (mut inside, mut start) = (Vec::new(), Vec::new());
         let s = stream(&held);

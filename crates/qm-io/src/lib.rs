@@ -25,5 +25,5 @@ pub use container::Limits;
 pub use error::{Error, Result};
 pub use holds::Probes;
 pub use polymesh::PolyMesh;
-pub use qm_ezw::{self, Weighting};
+pub use qm_ezw::{self, Contexts, Weighting};
 pub use qm_lift::{self, UpdateRule};

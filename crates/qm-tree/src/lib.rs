@@ -22,6 +22,18 @@
 //! in breadth-first order, so a node's children are contiguous, every parent
 //! comes before its children, and levels come one after another: the order
 //! the coder scans in.
+//!
+//! **Neighbours.** Besides its tree, a coefficient has neighbours on its own
+//! level, which a coder can use as context ([`ZeroTree::neighbours`]): the
+//! level-`l` coefficients at the grid offsets `(+-h, 0)`, `(0, +-h)`,
+//! `(+-h, +-h)`, `(+-2h, 0)` and `(0, +-2h)` from it (those offsets that
+//! land on a coefficient of the same level, not on a coarser sample). A face
+//! point has eight (four edge points, four face points), an edge point ten
+//! (two face points, four edge points across it, four along it). Points
+//! beyond the face are found across its sides (not across irregular
+//! corners, nor diagonally past a corner); a sample on a base edge or vertex
+//! looks from the face that reaches it first, so near base edges the
+//! relation need not be symmetric.
 
 use qm_lift::Layout;
 
@@ -51,7 +63,28 @@ pub struct ZeroTree {
     level_starts: Vec<usize>,
     max_level: u32,
     base_vertices: usize,
+    /// Node `k`'s neighbours are `neighbours[neighbour_starts[k] ..
+    /// neighbour_starts[k + 1]]`.
+    neighbour_starts: Vec<u32>,
+    neighbours: Vec<u32>,
 }
+
+/// Grid offsets of a coefficient's neighbours, in units of its level's
+/// spacing `h` (see the module docs).
+const NEIGHBOUR_OFFSETS: [(i32, i32); 12] = [
+    (-1, 0),
+    (1, 0),
+    (0, -1),
+    (0, 1),
+    (-1, -1),
+    (1, -1),
+    (-1, 1),
+    (1, 1),
+    (-2, 0),
+    (2, 0),
+    (0, -2),
+    (0, 2),
+];
 
 impl ZeroTree {
     /// Builds the forest of `layout`'s coefficients (all samples but the
@@ -76,6 +109,8 @@ impl ZeroTree {
                 level_starts: vec![0],
                 max_level: big_l,
                 base_vertices: base.vertex_count() as usize,
+                neighbour_starts: vec![0],
+                neighbours: Vec::new(),
             };
         }
         // Every array has one entry per node: filled in place, not pushed.
@@ -89,6 +124,8 @@ impl ZeroTree {
             level_starts: vec![0],
             max_level: big_l,
             base_vertices: base.vertex_count() as usize,
+            neighbour_starts: Vec::with_capacity(count + 1),
+            neighbours: Vec::new(),
         };
         // Grid position of each node: face, then `x | y << 16`.
         let mut at: Vec<(u32, u32)> = Vec::with_capacity(count);
@@ -136,9 +173,7 @@ impl ZeroTree {
                 tree.samples
                     .push(layout.face_grid(g as usize)[y * (n + 1) + x]);
                 tree.kinds.push(kind);
-                if level as u32 + 1 < big_l {
-                    at.push((g, pack(x, y)));
-                }
+                at.push((g, pack(x, y)));
             }
             next += 1;
         }
@@ -151,7 +186,33 @@ impl ZeroTree {
             end = end.max(e);
             tree.level_starts.push(end);
         }
+        tree.find_neighbours(layout, &at);
         tree
+    }
+
+    /// Fills the neighbour lists from each node's grid position `at`.
+    fn find_neighbours(&mut self, layout: &Layout, at: &[(u32, u32)]) {
+        let mut node_of = vec![NO_PARENT; layout.sample_count()];
+        for (k, &s) in self.samples.iter().enumerate() {
+            node_of[s as usize] = k as u32;
+        }
+        self.neighbours.reserve(10 * self.samples.len());
+        self.neighbour_starts.push(0);
+        for (k, &(f, xy)) in at.iter().enumerate() {
+            let (x, y) = ((xy & 0xffff) as i32, (xy >> 16) as i32);
+            let level = self.levels[k];
+            let h = 1i32 << (self.max_level - level as u32);
+            for (dx, dy) in NEIGHBOUR_OFFSETS {
+                let Some(s) = layout.sample_beyond(f as usize, x + dx * h, y + dy * h) else {
+                    continue;
+                };
+                let m = node_of[s as usize];
+                if m != NO_PARENT && self.levels[m as usize] == level {
+                    self.neighbours.push(m);
+                }
+            }
+            self.neighbour_starts.push(self.neighbours.len() as u32);
+        }
     }
 
     /// Children of the level-`l` node at `(x, y)` of face `f`, `h = 2^(L-l)`,
@@ -245,6 +306,13 @@ impl ZeroTree {
             }
         }
         count
+    }
+
+    /// The neighbours of node `k` on its own level (see the module docs).
+    #[inline]
+    pub fn neighbours(&self, k: usize) -> &[u32] {
+        let range = self.neighbour_starts[k] as usize..self.neighbour_starts[k + 1] as usize;
+        &self.neighbours[range]
     }
 
     /// Number of coefficients (nodes).
@@ -418,6 +486,53 @@ mod tests {
             .filter(|&k| tree.kinds()[k] == Kind::Edge && tree.children(k).len() == 3)
             .count();
         assert_eq!(boundary_roots, layout.base().boundary_edge_count());
+    }
+
+    /// Every neighbour is another node of the same level; well inside a
+    /// face a face point has 8 and an edge point 10, and the relation is
+    /// mutual there.
+    #[test]
+    fn neighbours_are_the_same_level_points_around() {
+        let big_l = 4;
+        let layout = Layout::new(cube(), big_l).unwrap();
+        let tree = ZeroTree::new(&layout);
+        let n = layout.n();
+        let mut node_of = vec![NO_PARENT; layout.sample_count()];
+        for (k, &s) in tree.samples().iter().enumerate() {
+            node_of[s as usize] = k as u32;
+        }
+        let mut inside = 0;
+        for f in 0..layout.face_count() {
+            for j in 0..=n {
+                for i in 0..=n {
+                    let k = node_of[layout.sample(f, i, j) as usize];
+                    if k == NO_PARENT {
+                        continue;
+                    }
+                    let nb = tree.neighbours(k as usize);
+                    let level = tree.levels()[k as usize];
+                    for (a, &m) in nb.iter().enumerate() {
+                        assert_ne!(m, k);
+                        assert_eq!(tree.levels()[m as usize], level);
+                        assert!(!nb[..a].contains(&m), "node {k} lists {m} twice");
+                    }
+                    let h = 1 << (big_l - level as u32);
+                    if i >= 2 * h && j >= 2 * h && i + 2 * h <= n && j + 2 * h <= n {
+                        let want = match tree.kinds()[k as usize] {
+                            Kind::Face => 8,
+                            Kind::Edge => 10,
+                        };
+                        assert_eq!(nb.len(), want, "node {k} at ({i}, {j}) of face {f}");
+                        for &m in nb {
+                            assert!(tree.neighbours(m as usize).contains(&k));
+                        }
+                        inside += 1;
+                    }
+                }
+            }
+        }
+        // Levels 2 to 4 of six 16 x 16 faces have points that far inside.
+        assert!(inside > 6 * 50, "{inside}");
     }
 
     #[test]

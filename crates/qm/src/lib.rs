@@ -34,8 +34,8 @@ pub use qm_param as param;
 pub use qm_tree as tree;
 
 pub use qm_io::{
-    BasePlacement, Compressed, DecodeOptions, DecodeStatus, Decoder, Decompressed, EncodeOptions,
-    Frames, Limits, PolyMesh, UpdateRule, Weighting,
+    BasePlacement, Compressed, Contexts, DecodeOptions, DecodeStatus, Decoder, Decompressed,
+    EncodeOptions, Frames, Limits, PolyMesh, UpdateRule, Weighting,
 };
 pub use qm_lift::SemiRegularMesh;
 pub use qm_param::{Detected, RemeshOptions, RemeshReport, Remeshed};

@@ -435,6 +435,7 @@ struct Info {
     base_vertices: u32,
     base_faces: u32,
     base_low_bits_in_stream: u32,
+    contexts: String,
     holds: Vec<[u32; 2]>,
     vertices: u64,
     faces: u64,
@@ -470,6 +471,11 @@ fn info(input: &Path, json: bool) -> Result<(), Failure> {
         base_vertices: h.base_vertices,
         base_faces: h.base_faces,
         base_low_bits_in_stream: c.base.low_bits,
+        contexts: match h.stream_params().contexts {
+            qm::Contexts::Tree => "tree",
+            qm::Contexts::Neighbours => "neighbours",
+        }
+        .into(),
         holds: h.holds.clone(),
         vertices: base.sample_count(h.level as u32),
         faces: faces * n * n,
