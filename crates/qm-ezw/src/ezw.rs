@@ -651,38 +651,60 @@ impl Models {
 }
 
 /// What a node's neighbours show, kept up to date by coder and decoder
-/// alike ([`Contexts::Neighbours`]).
-#[derive(Clone, Copy, Default)]
-struct Around {
-    /// Neighbours significant in each coordinate.
-    significant: [u8; 3],
-    /// Their signs added up (+1 positive, -1 negative), per coordinate.
-    signs: [i8; 3],
-    /// Neighbours whose subtrees are open.
-    open: u8,
+/// alike ([`Contexts::Neighbours`]), packed in 24 bits (a node has at most
+/// four neighbours, and the relation is mutual): for each coordinate `c`,
+/// the neighbours significant in it (3 bits at `3c`) and their signs added
+/// up, +1 positive, -1 negative, plus 4 (4 bits at `9 + 4c`); then the
+/// neighbours whose subtrees are open (3 bits at 21).
+#[derive(Clone, Copy)]
+struct Around(u32);
+
+impl Default for Around {
+    fn default() -> Self {
+        // Every sign sum at its zero, 4.
+        Around((0..3).map(|c| 4 << (9 + 4 * c)).sum())
+    }
 }
 
 impl Around {
+    /// A neighbour's coordinate `c` became significant, negative or not.
+    #[inline]
+    fn add_significant(&mut self, c: usize, negative: bool) {
+        self.0 += 1 << (3 * c);
+        let sign = 1 << (9 + 4 * c);
+        if negative {
+            self.0 -= sign;
+        } else {
+            self.0 += sign;
+        }
+    }
+
+    /// A neighbour opened its subtree.
+    #[inline]
+    fn add_open(&mut self) {
+        self.0 += 1 << 21;
+    }
+
     /// The neighbour part of a significance context of coordinate `c`.
     #[inline]
-    fn significance(&self, c: usize) -> usize {
-        (self.significant[c] as usize).min(NEIGHBOUR_SIG - 1)
+    fn significance(self, c: usize) -> usize {
+        ((self.0 >> (3 * c)) as usize & 7).min(NEIGHBOUR_SIG - 1)
     }
 
     /// The neighbour part of a sign context of coordinate `c`.
     #[inline]
-    fn sign(&self, c: usize) -> usize {
-        match self.signs[c] {
-            0 => 0,
-            s if s > 0 => 1,
+    fn sign(self, c: usize) -> usize {
+        match (self.0 >> (9 + 4 * c)) & 15 {
+            4 => 0,
+            s if s > 4 => 1,
             _ => 2,
         }
     }
 
     /// The neighbour part of a zerotree context.
     #[inline]
-    fn open(&self) -> usize {
-        (self.open as usize).min(NEIGHBOUR_OPEN - 1)
+    fn open(self) -> usize {
+        ((self.0 >> 21) as usize & 7).min(NEIGHBOUR_OPEN - 1)
     }
 }
 
@@ -895,11 +917,8 @@ impl State {
                             self.neg[k] |= 1 << c;
                         }
                         if !self.around.is_empty() {
-                            for &m in tree.neighbours(k) {
-                                let a = &mut self.around[m as usize];
-                                a.significant[c] = a.significant[c].saturating_add(1);
-                                let step = if negative { -1 } else { 1 };
-                                a.signs[c] = a.signs[c].saturating_add(step);
+                            for &m in tree.neighbours(k).iter() {
+                                self.around[m as usize].add_significant(c, negative);
                             }
                         }
                         self.refine_lists[level as usize - 1].push(Significant {
@@ -915,7 +934,7 @@ impl State {
                     continue;
                 }
                 if !self.open[k] {
-                    let around = self.around.get(k).map_or(0, Around::open);
+                    let around = self.around.get(k).map_or(0, |a| a.open());
                     let ctx = ((kind * LEVEL_CLASSES + class) * 4
                         + self.sig[k].count_ones() as usize)
                         * NEIGHBOUR_OPEN
@@ -928,9 +947,8 @@ impl State {
                         Ok(true) => {
                             self.open[k] = true;
                             if !self.around.is_empty() {
-                                for &m in tree.neighbours(k) {
-                                    let a = &mut self.around[m as usize];
-                                    a.open = a.open.saturating_add(1);
+                                for &m in tree.neighbours(k).iter() {
+                                    self.around[m as usize].add_open();
                                 }
                             }
                         }
