@@ -55,7 +55,8 @@
 //! own significance; refinement bits by coordinate and whether this is the
 //! first refinement. With [`Contexts::Neighbours`] (the default) the
 //! coefficient's neighbours on its own level (`ZeroTree::neighbours`: the
-//! grid points around it, in the surface rather than up its tree) add to
+//! nearest points of its level on the surface, a face point's four edge
+//! points and an edge point's two face points, rather than up its tree) add to
 //! three of these: how many of them are significant in the coordinate (0 to
 //! 3 or more) to the significance bits, whether the signs of those lean
 //! positive or negative to the sign bits, and how many of them have opened
@@ -64,7 +65,9 @@
 //! open, so a context costs no search. Detail is spatially clustered (a
 //! crease, an ear, a rough patch of a scan), which a tree alone sees only
 //! through the parent and the siblings. Measured on the development models
-//! (`cargo xtask ab --a contexts=tree`), see the README.
+//! (`cargo xtask ab --a contexts=tree`): +0.30 to +1.18 dB at equal bytes
+//! from 60 to 78 dB, lossless files 3 to 6% smaller; see the README, which
+//! also has what it costs in speed.
 //!
 //! **Reconstruction.** An unresolved coefficient is put at the centre of its
 //! uncertainty interval, so more bits never make the expected error larger
