@@ -508,7 +508,8 @@ mod tests {
     /// On a closed cube every face point has its 4 edge points as
     /// neighbours and every edge point the 2 face points beside it, across
     /// base edges and around the irregular corners too, and the relation
-    /// is mutual; on the holed grid an edge point on the boundary has one.
+    /// is mutual; on the holed grid too, where an edge point on the boundary
+    /// has one.
     #[test]
     fn neighbours_are_the_nearest_points_of_the_level() {
         let layout = Layout::new(cube(), 4).unwrap();
@@ -531,6 +532,14 @@ mod tests {
         }
         let layout = Layout::new(holed_grid(), 3).unwrap();
         let tree = ZeroTree::new(&layout);
+        for k in 0..tree.len() {
+            for &m in tree.neighbours(k).iter() {
+                assert!(
+                    tree.neighbours(m as usize).contains(&(k as u32)),
+                    "{k} -> {m}"
+                );
+            }
+        }
         let lonely = (0..tree.len())
             .filter(|&k| tree.kinds()[k] == Kind::Edge && tree.neighbours(k).len() == 1)
             .count();
