@@ -284,6 +284,39 @@ fn first_version_3_files_still_decode() {
     assert!(cut.truncated && cut.values != old.values);
 }
 
+/// Version 5 added the neighbour contexts; `tests/data/holed_grid_v5.qm`
+/// is `qm::compress` of `assets/quad/holed_grid_l4.obj` with the defaults
+/// from the first version 5 build, and `holed_grid_v4.qm` the same with the
+/// tree contexts alone (version 4, with holds; the build before version 5
+/// decodes it to the same mesh, and refuses the version 5 file). The
+/// encoder must still write both byte for byte, so that a change to the
+/// neighbour contexts that keeps coder and decoder in step, but changes
+/// the format, cannot pass unnoticed; both decode exactly, and the
+/// neighbour contexts code the grid in fewer bytes.
+#[test]
+fn first_version_5_and_version_4_files_still_decode() {
+    let input = qm::read_mesh(&asset("quad/holed_grid_l4.obj")).unwrap();
+    let prepared = qm::detect(&input).unwrap();
+    let mut sizes = Vec::new();
+    for (name, version, contexts) in [
+        ("holed_grid_v5.qm", 5, Contexts::Neighbours),
+        ("holed_grid_v4.qm", 4, Contexts::Tree),
+    ] {
+        let file = std::fs::read(asset(&format!("../tests/data/{name}"))).unwrap();
+        assert_eq!(file[4], version, "{name}");
+        let old = qm::decompress(&file, &DecodeOptions::default()).unwrap();
+        let options = EncodeOptions::DEFAULT.with_contexts(contexts);
+        let new = qm::compress(&prepared.mesh, &options).unwrap();
+        assert!(
+            new.bytes == file,
+            "{name} is no longer written byte for byte"
+        );
+        assert_eq!(old.values, new.quantized, "{name}");
+        sizes.push(file.len());
+    }
+    assert!(sizes[0] < sizes[1], "{sizes:?}");
+}
+
 /// However many low bits of the base values the stream carries, none
 /// (every plane of the stream weighs less than the base values' lowest bit)
 /// or some, the last pass gives the quantized samples back

@@ -221,6 +221,11 @@ pub struct BaseBits<'a> {
 /// and, when `base` is given, the low [`StreamParams::base_bits`] bits of
 /// its values; the rest of them (`value >> base_bits`) is for the caller
 /// to store.
+///
+/// # Panics
+///
+/// With [`Contexts::Neighbours`] if `tree` was built
+/// `ZeroTree::without_neighbours` (so does decoding such a stream).
 pub fn encode(
     tree: &ZeroTree,
     coefs: &[Coef],
@@ -752,6 +757,9 @@ impl State {
             neg: vec![0; n],
             open: vec![false; n],
             around: match params.contexts {
+                Contexts::Neighbours if !tree.has_neighbours() => {
+                    panic!("neighbour contexts need a ZeroTree::new, not without_neighbours")
+                }
                 Contexts::Tree => Vec::new(),
                 Contexts::Neighbours => vec![Around::default(); n],
             },
