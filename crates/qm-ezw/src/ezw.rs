@@ -160,6 +160,16 @@ pub enum Contexts {
     Neighbours,
 }
 
+impl std::fmt::Display for Contexts {
+    /// `tree` or `neighbours`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Contexts::Tree => "tree",
+            Contexts::Neighbours => "neighbours",
+        })
+    }
+}
+
 /// What the decoder must know to follow the encoder: stored in the header.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct StreamParams {
@@ -772,6 +782,18 @@ impl State {
         }
     }
 
+    /// Updates what node `k`'s neighbours know of it (nothing with
+    /// [`Contexts::Tree`], which keeps no counts).
+    #[inline]
+    fn tell_neighbours(&mut self, tree: &ZeroTree, k: usize, update: impl Fn(&mut Around)) {
+        if self.around.is_empty() {
+            return;
+        }
+        for &m in tree.neighbours(k).iter() {
+            update(&mut self.around[m as usize]);
+        }
+    }
+
     /// Bit plane of coordinate `coord` of a level-`level` coefficient coded
     /// in global plane `plane`.
     #[inline]
@@ -927,11 +949,7 @@ impl State {
                         if negative {
                             self.neg[k] |= 1 << c;
                         }
-                        if !self.around.is_empty() {
-                            for &m in tree.neighbours(k).iter() {
-                                self.around[m as usize].add_significant(c, negative);
-                            }
-                        }
+                        self.tell_neighbours(tree, k, |a| a.add_significant(c, negative));
                         self.refine_lists[level as usize - 1].push(Significant {
                             node: k as u32,
                             coord: c as u8,
@@ -957,11 +975,7 @@ impl State {
                     ) {
                         Ok(true) => {
                             self.open[k] = true;
-                            if !self.around.is_empty() {
-                                for &m in tree.neighbours(k).iter() {
-                                    self.around[m as usize].add_open();
-                                }
-                            }
+                            self.tell_neighbours(tree, k, Around::add_open);
                         }
                         Ok(false) => continue,
                         Err(e) => {

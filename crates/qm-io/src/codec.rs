@@ -427,7 +427,7 @@ fn with_holds(compressed: Compressed, holds: Vec<[u32; 2]>) -> Result<Compressed
 fn holds_header(compressed: &Compressed, holds: &[[u32; 2]]) -> Result<Vec<u8>> {
     let c = container::read(&compressed.bytes, &Limits::NONE)?;
     let header = Header {
-        version: c.header.version.max(4),
+        version: c.header.version.max(container::HOLDS_VERSION),
         holds: holds.to_vec(),
         ..c.header
     };

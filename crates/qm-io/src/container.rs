@@ -113,6 +113,9 @@ pub const BASE_BITS_MASK: u32 = 0x1f;
 /// (version 5; without it, [`qm_ezw::Contexts::Tree`]).
 pub const NEIGHBOUR_CONTEXTS: u32 = 0x20;
 
+/// The first version whose header carries holds.
+pub const HOLDS_VERSION: u8 = 4;
+
 /// The flags a header of `version` may set.
 fn known_flags(version: u8) -> u32 {
     match version {
@@ -243,7 +246,7 @@ fn config() -> bincode::config::Configuration {
 /// need version 4 or later, neighbour contexts version 5).
 pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u8>> {
     let low_bits = header.stream_params().base_bits;
-    if header.version < 4 && !header.holds.is_empty() {
+    if header.version < HOLDS_VERSION && !header.holds.is_empty() {
         return Err(Error::Malformed {
             what: format!("holds in a version {} header", header.version),
         });
@@ -267,7 +270,7 @@ pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u
         bincode::serde::encode_to_vec(header, config()).map_err(|e| Error::Malformed {
             what: e.to_string(),
         })?;
-    if header.version >= 4 {
+    if header.version >= HOLDS_VERSION {
         let mut end = 0;
         let relative: Vec<[u32; 2]> = (header.holds.iter())
             .map(|&[from, to]| {
@@ -654,12 +657,21 @@ mod tests {
     fn version_2_round_trip() {
         let (mut header, mut base) = sample();
         header.version = 2;
-        assert!(write(&header, &base, b"").is_err());
-        header.holds.clear();
-        assert!(write(&header, &base, b"").is_err());
         header.flags = 0;
+        // Holds need version 4, and nothing else is wrong here.
         base.low_bits = 0;
         base.values = vec![[0, 0, 0], [4095, 0, 7], [4095, 4095, -3], [0, 4095, 9]];
+        match write(&header, &base, b"") {
+            Err(Error::Malformed { what }) => {
+                assert!(what.contains("holds in a version 2"), "{what}")
+            }
+            other => panic!("{other:?}"),
+        }
+        header.holds.clear();
+        // Low base bits in the stream need version 3.
+        header.flags = 10;
+        assert!(write(&header, &base, b"").is_err());
+        header.flags = 0;
         let bytes = write(&header, &base, b"s").unwrap();
         assert_eq!(bytes[4], 2);
         let c = read(&bytes, &Limits::DEFAULT).unwrap();

@@ -471,11 +471,7 @@ fn info(input: &Path, json: bool) -> Result<(), Failure> {
         base_vertices: h.base_vertices,
         base_faces: h.base_faces,
         base_low_bits_in_stream: c.base.low_bits,
-        contexts: match h.stream_params().contexts {
-            qm::Contexts::Tree => "tree",
-            qm::Contexts::Neighbours => "neighbours",
-        }
-        .into(),
+        contexts: h.stream_params().contexts.to_string(),
         holds: h.holds.clone(),
         vertices: base.sample_count(h.level as u32),
         faces: faces * n * n,
