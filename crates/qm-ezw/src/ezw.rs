@@ -66,7 +66,7 @@
 //! crease, an ear, a rough patch of a scan), which a tree alone sees only
 //! through the parent and the siblings. Measured on the development models
 //! (`cargo xtask ab --a contexts=tree`): +0.30 to +1.18 dB at equal bytes
-//! from 60 to 78 dB, lossless files 3 to 6% smaller; see the README, which
+//! from 60 to 78 dB, lossless files 4 to 6% smaller; see the README, which
 //! also has what it costs in speed.
 //!
 //! **Reconstruction.** An unresolved coefficient is put at the centre of its
