@@ -73,7 +73,7 @@
 //! uncertainty interval, so more bits never make the expected error larger
 //! (the paper's rising error came from doing otherwise).
 
-use qm_tree::{NO_PARENT, ZeroTree};
+use qm_tree::{NO_PARENT, Neighbours, ZeroTree};
 
 use crate::range::{BitReader, BitWriter, Context, ReaderSnapshot, Truncated};
 
@@ -231,11 +231,6 @@ pub struct BaseBits<'a> {
 /// and, when `base` is given, the low [`StreamParams::base_bits`] bits of
 /// its values; the rest of them (`value >> base_bits`) is for the caller
 /// to store.
-///
-/// # Panics
-///
-/// With [`Contexts::Neighbours`] if `tree` was built
-/// `ZeroTree::without_neighbours` (so does decoding such a stream).
 pub fn encode(
     tree: &ZeroTree,
     coefs: &[Coef],
@@ -668,61 +663,69 @@ impl Models {
     }
 }
 
-/// What a node's neighbours show, kept up to date by coder and decoder
-/// alike ([`Contexts::Neighbours`]), packed in 24 bits (a node has at most
-/// four neighbours, and the relation is mutual): for each coordinate `c`,
-/// the neighbours significant in it (3 bits at `3c`) and their signs added
-/// up, +1 positive, -1 negative, plus 4 (4 bits at `9 + 4c`); then the
-/// neighbours whose subtrees are open (3 bits at 21).
+/// What a sample's neighbours show, kept up to date by coder and decoder
+/// alike ([`Contexts::Neighbours`]), in 14 bits: for each coordinate `c`,
+/// how many of the neighbours significant in it are positive (2 bits at
+/// `4c`) and how many negative (2 bits at `4c + 2`); then how many have
+/// opened their subtrees (2 bits at 12). Each count stops at 3, which
+/// loses nothing: a sample has at most four neighbours, so a count of 4
+/// leaves the other at 0, and the contexts tell 3 from 4 neither in the
+/// significant nor in the open ones. Zero: nothing known yet.
 #[derive(Clone, Copy)]
-struct Around(u32);
-
-impl Default for Around {
-    fn default() -> Self {
-        // Every sign sum at its zero, 4.
-        Around((0..3).map(|c| 4 << (9 + 4 * c)).sum())
-    }
-}
+struct Around(u16);
 
 impl Around {
+    /// Adds one to the 2-bit count at `shift`, up to 3.
+    #[inline]
+    fn with_one_more(self, shift: usize) -> Self {
+        if (self.0 >> shift) & 3 == 3 {
+            self
+        } else {
+            Around(self.0 + (1 << shift))
+        }
+    }
+
     /// A neighbour's coordinate `c` became significant, negative or not.
     #[inline]
-    fn add_significant(&mut self, c: usize, negative: bool) {
-        self.0 += 1 << (3 * c);
-        let sign = 1 << (9 + 4 * c);
-        if negative {
-            self.0 -= sign;
-        } else {
-            self.0 += sign;
-        }
+    fn with_significant(self, c: usize, negative: bool) -> Self {
+        self.with_one_more(4 * c + 2 * negative as usize)
     }
 
     /// A neighbour opened its subtree.
     #[inline]
-    fn add_open(&mut self) {
-        self.0 += 1 << 21;
+    fn with_open(self) -> Self {
+        self.with_one_more(12)
+    }
+
+    /// The neighbours significant in coordinate `c`: positive, negative.
+    #[inline]
+    fn counts(self, c: usize) -> (u16, u16) {
+        ((self.0 >> (4 * c)) & 3, (self.0 >> (4 * c + 2)) & 3)
     }
 
     /// The neighbour part of a significance context of coordinate `c`.
     #[inline]
     fn significance(self, c: usize) -> usize {
-        ((self.0 >> (3 * c)) as usize & 7).min(NEIGHBOUR_SIG - 1)
+        let (positive, negative) = self.counts(c);
+        ((positive + negative) as usize).min(NEIGHBOUR_SIG - 1)
     }
 
-    /// The neighbour part of a sign context of coordinate `c`.
+    /// The neighbour part of a sign context of coordinate `c`: whether the
+    /// significant neighbours' signs lean positive (1) or negative (2).
     #[inline]
     fn sign(self, c: usize) -> usize {
-        match (self.0 >> (9 + 4 * c)) & 15 {
-            4 => 0,
-            s if s > 4 => 1,
-            _ => 2,
+        let (positive, negative) = self.counts(c);
+        match positive.cmp(&negative) {
+            std::cmp::Ordering::Equal => 0,
+            std::cmp::Ordering::Greater => 1,
+            std::cmp::Ordering::Less => 2,
         }
     }
 
     /// The neighbour part of a zerotree context.
     #[inline]
     fn open(self) -> usize {
-        ((self.0 >> 21) as usize & 7).min(NEIGHBOUR_OPEN - 1)
+        ((self.0 >> 12) as usize & 3).min(NEIGHBOUR_OPEN - 1)
     }
 }
 
@@ -737,8 +740,10 @@ struct State {
     neg: Vec<u8>,
     /// Whether the node's subtree has been opened.
     open: Vec<bool>,
-    /// What each node's neighbours show (empty with [`Contexts::Tree`]).
-    around: Vec<Around>,
+    /// What each sample's neighbours show ([`Around`], by sample id;
+    /// zeroed, so untouched pages cost nothing; empty with
+    /// [`Contexts::Tree`]).
+    around: Vec<u16>,
     /// Per level, significant coordinates in the order they became so, with
     /// what is known of their magnitudes.
     refine_lists: Vec<Vec<Significant>>,
@@ -767,11 +772,8 @@ impl State {
             neg: vec![0; n],
             open: vec![false; n],
             around: match params.contexts {
-                Contexts::Neighbours if !tree.has_neighbours() => {
-                    panic!("neighbour contexts need a ZeroTree::new, not without_neighbours")
-                }
                 Contexts::Tree => Vec::new(),
-                Contexts::Neighbours => vec![Around::default(); n],
+                Contexts::Neighbours => vec![0; tree.base_vertices() + n],
             },
             refine_lists: vec![Vec::new(); tree.max_level() as usize],
             models: Models::new(),
@@ -783,15 +785,33 @@ impl State {
     }
 
     /// Updates what node `k`'s neighbours know of it (nothing with
-    /// [`Contexts::Tree`], which keeps no counts).
+    /// [`Contexts::Tree`], which keeps no counts); `known` keeps the
+    /// neighbours once found, for the node's next update in the same visit.
     #[inline]
-    fn tell_neighbours(&mut self, tree: &ZeroTree, k: usize, update: impl Fn(&mut Around)) {
+    fn tell_neighbours(
+        &mut self,
+        tree: &ZeroTree,
+        k: usize,
+        known: &mut Option<Neighbours>,
+        update: impl Fn(Around) -> Around,
+    ) {
         if self.around.is_empty() {
             return;
         }
-        for &m in tree.neighbours(k).iter() {
-            update(&mut self.around[m as usize]);
+        for &s in known.get_or_insert_with(|| tree.neighbours(k)).iter() {
+            let a = &mut self.around[s as usize];
+            *a = update(Around(*a)).0;
         }
+    }
+
+    /// What node `k`'s neighbours show (nothing with [`Contexts::Tree`]).
+    #[inline]
+    fn around(&self, tree: &ZeroTree, k: usize) -> Around {
+        Around(
+            self.around
+                .get(tree.samples()[k] as usize)
+                .map_or(0, |&a| a),
+        )
     }
 
     /// Bit plane of coordinate `coord` of a level-`level` coefficient coded
@@ -880,6 +900,10 @@ impl State {
                 let level = levels[k] as u32;
                 let kind = kinds[k] as usize;
                 let class = level_class(level, self.max_level);
+                // What the node's neighbours show (only they change it), and
+                // the neighbours themselves, once an update needs them.
+                let around = self.around(tree, k);
+                let mut known = None;
                 if self.sig[k] != 0b111 {
                     let parent = parents[k];
                     for c in 0..3 {
@@ -904,7 +928,6 @@ impl State {
                                 .count()
                                 .min(2)
                         };
-                        let around = self.around.get(k).copied().unwrap_or_default();
                         let ctx = (((((kind * LEVEL_CLASSES + class) * 3 + c) * 3 + parent_state)
                             * 3
                             + own)
@@ -949,7 +972,9 @@ impl State {
                         if negative {
                             self.neg[k] |= 1 << c;
                         }
-                        self.tell_neighbours(tree, k, |a| a.add_significant(c, negative));
+                        self.tell_neighbours(tree, k, &mut known, |a| {
+                            a.with_significant(c, negative)
+                        });
                         self.refine_lists[level as usize - 1].push(Significant {
                             node: k as u32,
                             coord: c as u8,
@@ -963,7 +988,7 @@ impl State {
                     continue;
                 }
                 if !self.open[k] {
-                    let around = self.around.get(k).map_or(0, |a| a.open());
+                    let around = around.open();
                     let ctx = ((kind * LEVEL_CLASSES + class) * 4
                         + self.sig[k].count_ones() as usize)
                         * NEIGHBOUR_OPEN
@@ -975,7 +1000,7 @@ impl State {
                     ) {
                         Ok(true) => {
                             self.open[k] = true;
-                            self.tell_neighbours(tree, k, Around::add_open);
+                            self.tell_neighbours(tree, k, &mut known, Around::with_open);
                         }
                         Ok(false) => continue,
                         Err(e) => {
@@ -1121,6 +1146,50 @@ mod tests {
             .zip(b)
             .flat_map(|(x, y)| (0..3).map(move |c| ((x[c] - y[c]) as f64).powi(2)))
             .sum()
+    }
+
+    /// The packed neighbour counts give the contexts the plain counts
+    /// would, for every way up to four neighbours can become significant
+    /// and open, in any coordinate, whatever the order.
+    #[test]
+    fn packed_neighbour_counts_match_plain_counts() {
+        // Each of four neighbours: significant positive, negative, or not,
+        // in coordinate `c`; open or not.
+        for c in 0..3 {
+            for states in 0..(3u32.pow(4) * 16) {
+                let (mut around, mut positive, mut negative, mut open) = (Around(0), 0, 0, 0);
+                for n in 0..4 {
+                    match states / 3u32.pow(n) % 3 {
+                        1 => {
+                            around = around.with_significant(c, false);
+                            positive += 1;
+                        }
+                        2 => {
+                            around = around.with_significant(c, true);
+                            negative += 1;
+                        }
+                        _ => {}
+                    }
+                    if (states / 81) & (1 << n) != 0 {
+                        around = around.with_open();
+                        open += 1;
+                    }
+                }
+                let significant = positive + negative;
+                assert_eq!(around.significance(c), significant.min(NEIGHBOUR_SIG - 1));
+                let lean = match positive.cmp(&negative) {
+                    std::cmp::Ordering::Equal => 0,
+                    std::cmp::Ordering::Greater => 1,
+                    std::cmp::Ordering::Less => 2,
+                };
+                assert_eq!(around.sign(c), lean, "{positive} +, {negative} -");
+                assert_eq!(around.open(), open.min(NEIGHBOUR_OPEN - 1));
+                // The other coordinates know nothing of it.
+                for d in (0..3).filter(|&d| d != c) {
+                    assert_eq!((around.significance(d), around.sign(d)), (0, 0));
+                }
+            }
+        }
     }
 
     #[test]

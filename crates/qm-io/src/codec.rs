@@ -327,7 +327,7 @@ fn compress_with(
     Lifting::new(layout, options.update)
         .with_parent_frames_from(container::parent_frames_from(frames))
         .forward(&mut data);
-    let tree = tree_for(layout, options.contexts);
+    let tree = ZeroTree::new(layout);
     let coefs = tree.gather(&data);
     let base = layout.base();
     let values = &data[..base.vertex_count() as usize];
@@ -390,15 +390,6 @@ fn compress_with(
         quantized: quantized.to_vec(),
         quantizer,
     })
-}
-
-/// The coefficient forest of `layout`, with the neighbours only when the
-/// context model uses them.
-fn tree_for(layout: &Layout, contexts: Contexts) -> ZeroTree {
-    match contexts {
-        Contexts::Tree => ZeroTree::without_neighbours(layout),
-        Contexts::Neighbours => ZeroTree::new(layout),
-    }
 }
 
 /// `compressed` (without holds) rewritten with `holds` in a version 4 (or 5)
@@ -694,7 +685,7 @@ impl Decoder {
         let h = c.header;
         let base = BaseMesh::new(h.base_vertices, c.base.faces)?;
         let layout = Layout::new(base, h.level as u32)?;
-        let tree = tree_for(&layout, h.stream_params().contexts);
+        let tree = ZeroTree::new(&layout);
         let quantizer = Quantizer {
             bits: h.bits as u32,
             origin: h.origin,

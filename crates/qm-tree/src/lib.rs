@@ -29,16 +29,17 @@
 //! it, the nearest ones (those offsets that land on a coefficient of the
 //! same level, not on a coarser sample). A face point has four, the edge
 //! points of its quad's sides; an edge point two, the face points of the
-//! quads on either side of its edge. Points beyond the face are found
-//! across its sides (not across the extension of an irregular corner).
+//! quads on either side of its edge (one on a boundary). They are computed
+//! from the sample id when asked for, from the layout's numbering (edge
+//! interiors, then face interiors row-major), so the tree keeps no table
+//! of them.
 //! Wider neighbourhoods made the coder's contexts worse, not better (mean
 //! PSNR over 16 log-spaced cuts of spot, fandisk and the bunny): with the
 //! diagonal points too, 0.01 to 0.09 dB lower; with those and the points
 //! `2h` away along the axes, 0.14 to 0.20 dB lower.
 //! The relation is mutual.
 
-use qm_lift::Layout;
-use rayon::prelude::*;
+use qm_lift::{BaseMesh, Layout};
 
 pub use qm_lift;
 
@@ -66,11 +67,12 @@ pub struct ZeroTree {
     level_starts: Vec<usize>,
     max_level: u32,
     base_vertices: usize,
-    /// Each node's neighbours.
-    neighbours: Vec<Neighbours>,
+    /// The base mesh, whose edges and sides locate the samples on base
+    /// edges (for [`Self::neighbours`]).
+    base: BaseMesh,
 }
 
-/// The neighbours of a node (at most four), as a slice of node indices.
+/// The neighbours of a node (at most four), as a slice of sample ids.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Neighbours {
     ids: [u32; 4],
@@ -91,22 +93,9 @@ const NEIGHBOUR_OFFSETS: [(i32, i32); 4] = [(-1, 0), (1, 0), (0, -1), (0, 1)];
 
 impl ZeroTree {
     /// Builds the forest of `layout`'s coefficients (all samples but the
-    /// base vertices) and finds every coefficient's neighbours
-    /// ([`Self::neighbours`]).
+    /// base vertices) in one breadth-first pass: each node's face-local
+    /// grid position gives its children directly (see `children_of`).
     pub fn new(layout: &Layout) -> Self {
-        Self::build(layout, true)
-    }
-
-    /// The forest without the neighbours, for a coder that does not use
-    /// them: about a third of the time and memory of [`Self::new`];
-    /// [`Self::neighbours`] is then empty for every node.
-    pub fn without_neighbours(layout: &Layout) -> Self {
-        Self::build(layout, false)
-    }
-
-    /// One breadth-first pass: each node keeps its face-local grid position,
-    /// from which its children follow directly (see `children_of`).
-    fn build(layout: &Layout, neighbours: bool) -> Self {
         let big_l = layout.level();
         let samples = layout.sample_count();
         let base = layout.base();
@@ -123,7 +112,7 @@ impl ZeroTree {
                 level_starts: vec![0],
                 max_level: big_l,
                 base_vertices: base.vertex_count() as usize,
-                neighbours: Vec::new(),
+                base: base.clone(),
             };
         }
         // Every array has one entry per node: filled in place, not pushed.
@@ -137,7 +126,7 @@ impl ZeroTree {
             level_starts: vec![0],
             max_level: big_l,
             base_vertices: base.vertex_count() as usize,
-            neighbours: Vec::new(),
+            base: base.clone(),
         };
         // Grid position of each node: face, then `x | y << 16`.
         let mut at: Vec<(u32, u32)> = Vec::with_capacity(count);
@@ -185,8 +174,8 @@ impl ZeroTree {
                 tree.samples
                     .push(layout.face_grid(g as usize)[y * (n + 1) + x]);
                 tree.kinds.push(kind);
-                // The finest nodes' positions only serve the neighbours.
-                if neighbours || level as u32 + 1 < big_l {
+                // The finest nodes have no children to find.
+                if level as u32 + 1 < big_l {
                     at.push((g, pack(x, y)));
                 }
             }
@@ -201,65 +190,86 @@ impl ZeroTree {
             end = end.max(e);
             tree.level_starts.push(end);
         }
-        if neighbours {
-            tree.neighbours = tree.find_neighbours(layout, &at);
-        }
         tree
     }
 
-    /// The neighbours of every node, from each node's face and grid point
-    /// `at` (`x | y << 16`): four grid lookups each, in parallel.
-    fn find_neighbours(&self, layout: &Layout, at: &[(u32, u32)]) -> Vec<Neighbours> {
-        let mut node_of = vec![NO_PARENT; layout.sample_count()];
-        for (k, &s) in self.samples.iter().enumerate() {
-            node_of[s as usize] = k as u32;
-        }
-        let n = layout.n() as i32;
-        let levels = &self.levels;
-        (at.par_iter().enumerate())
-            .map(|(k, &(f, xy))| {
-                let (x, y) = ((xy & 0xffff) as i32, (xy >> 16) as i32);
-                let h = 1i32 << (self.max_level - levels[k] as u32);
-                let grid = layout.face_grid(f as usize);
-                let mut found = Neighbours::default();
-                for (dx, dy) in NEIGHBOUR_OFFSETS {
-                    let (i, j) = (x + dx * h, y + dy * h);
-                    let m = if (0..=n).contains(&i) && (0..=n).contains(&j) {
-                        // Inside the face, a grid point whose coordinates
-                        // are multiples of `h` is a level-`l` coefficient
-                        // unless both are multiples of `2h` (a coarser
-                        // sample).
-                        if (i | j) & h == 0 {
-                            continue;
-                        }
-                        node_of[grid[(j * (n + 1) + i) as usize] as usize]
-                    } else {
-                        let Some(s) = layout.sample_beyond(f as usize, i, j) else {
-                            continue;
-                        };
-                        match node_of[s as usize] {
-                            m if m != NO_PARENT && levels[m as usize] == levels[k] => m,
-                            _ => continue,
-                        }
-                    };
-                    found.ids[found.len as usize] = m;
-                    found.len += 1;
-                }
-                found
-            })
-            .collect()
-    }
-
-    /// The neighbours of node `k` on its own level (see the module docs;
-    /// none if the tree was built [`Self::without_neighbours`]).
+    /// The neighbours of node `k` on its own level, as sample ids (see the
+    /// module docs). The relation is mutual: `k`'s sample is among the
+    /// neighbours of each of them.
     #[inline]
     pub fn neighbours(&self, k: usize) -> Neighbours {
-        self.neighbours.get(k).copied().unwrap_or_default()
-    }
-
-    /// Whether the tree knows its nodes' neighbours (see [`Self::new`]).
-    pub fn has_neighbours(&self) -> bool {
-        self.neighbours.len() == self.samples.len()
+        let h = 1i64 << (self.max_level - self.levels[k] as u32);
+        let n = 1i64 << self.max_level;
+        let m = n - 1;
+        let s = self.samples[k] as i64;
+        let v = self.base_vertices as i64;
+        let first_interior = v + self.base.edges().len() as i64 * m;
+        // The id of grid point `(i, j)` of face `f`, off its corners.
+        let id = |f: i64, i: i64, j: i64| -> u32 {
+            if (1..n).contains(&i) && (1..n).contains(&j) {
+                return (first_interior + (f * m + j - 1) * m + i - 1) as u32;
+            }
+            let k = match (i, j) {
+                (_, 0) => 0u8,
+                (i, _) if i == n => 1,
+                (_, j) if j == n => 2,
+                _ => 3,
+            };
+            let (t, _) = qm_lift::side_coords(n as i32, k, i as i32, j as i32);
+            let along = if self.base.owns(f as u32, k) {
+                t as i64
+            } else {
+                n - t as i64
+            };
+            let e = self.base.face_edges()[f as usize][k as usize] as i64;
+            (v + e * m + along - 1) as u32
+        };
+        let mut found = Neighbours::default();
+        let mut push = |id: u32| {
+            found.ids[found.len as usize] = id;
+            found.len += 1;
+        };
+        if s >= first_interior {
+            // Inside a face: the offsets that land on the same level, all
+            // within the face (a level-`l` coordinate is at least `h` from
+            // the border when it is an odd multiple of `h`).
+            let (r, m32) = ((s - first_interior) as u32, m as u32);
+            let (f, r) = (r / (m32 * m32), r % (m32 * m32));
+            let (f, x, y) = (f as i64, (r % m32 + 1) as i64, (r / m32 + 1) as i64);
+            if x > h && x + h < n && y > h && y + h < n {
+                // All of them inside too: one row is `m` ids.
+                let (odd_x, odd_y) = (x & h != 0, y & h != 0);
+                if odd_x {
+                    push((s - h * m) as u32);
+                    push((s + h * m) as u32);
+                }
+                if odd_y {
+                    push((s - h) as u32);
+                    push((s + h) as u32);
+                }
+                return found;
+            }
+            for (dx, dy) in NEIGHBOUR_OFFSETS {
+                let (i, j) = (x + dx as i64 * h, y + dy as i64 * h);
+                // Both coordinates multiples of `2h`: a coarser sample.
+                if (i | j) & h != 0 {
+                    push(id(f, i, j));
+                }
+            }
+        } else {
+            // On a base edge: the face points at depth `h` in the faces on
+            // either side.
+            let (r, m32) = ((s - v) as u32, m as u32);
+            let (e, along) = (r / m32, (r % m32 + 1) as i64);
+            let edge = &self.base.edges()[e as usize];
+            for (side, t) in [(edge.sides[0], along), (edge.sides[1], n - along)] {
+                if side.exists() {
+                    let (i, j) = qm_lift::side_point(n as i32, side.side, t as i32, h as i32);
+                    push(id(side.face as i64, i as i64, j as i64));
+                }
+            }
+        }
+        found
     }
 
     /// Children of the level-`l` node at `(x, y)` of face `f`, `h = 2^(L-l)`,
@@ -528,54 +538,82 @@ mod tests {
         assert_eq!(boundary_roots, layout.base().boundary_edge_count());
     }
 
-    /// On a closed cube every face point has its 4 edge points as
-    /// neighbours and every edge point the 2 face points beside it, across
-    /// base edges and around the irregular corners too, and the relation
-    /// is mutual; on the holed grid too, where an edge point on the boundary
-    /// has one.
+    /// The neighbours found by walking the grid: the same-level points at
+    /// `(+-h, 0)` and `(0, +-h)`, across face sides by the layout's own
+    /// lookup, as node indices.
+    fn walked_neighbours(layout: &Layout, tree: &ZeroTree, k: usize) -> Vec<usize> {
+        let s = tree.samples()[k];
+        let node = |s: u32| tree.samples().iter().position(|&x| x == s);
+        let n = layout.n() as i32;
+        let h = 1i32 << (tree.max_level() - tree.levels()[k] as u32);
+        let mut found = Vec::new();
+        for f in 0..layout.face_count() {
+            for j in 0..=n {
+                for i in 0..=n {
+                    if layout.sample(f, i as usize, j as usize) != s {
+                        continue;
+                    }
+                    for (dx, dy) in NEIGHBOUR_OFFSETS {
+                        let Some(t) = layout.sample_beyond(f, i + dx * h, j + dy * h) else {
+                            continue;
+                        };
+                        match node(t) {
+                            Some(m)
+                                if tree.levels()[m] == tree.levels()[k] && !found.contains(&m) =>
+                            {
+                                found.push(m);
+                            }
+                            _ => {}
+                        }
+                    }
+                }
+            }
+        }
+        found.sort();
+        found
+    }
+
+    /// The neighbours computed from the sample numbering are those found by
+    /// walking the grid, and on a closed cube every face point has its 4
+    /// edge points and every edge point the 2 face points beside it, across
+    /// base edges and around the irregular corners too; the relation is
+    /// mutual. On the holed grid an edge point on the boundary has one.
     #[test]
     fn neighbours_are_the_nearest_points_of_the_level() {
-        let layout = Layout::new(cube(), 4).unwrap();
-        let tree = ZeroTree::new(&layout);
-        let bare = ZeroTree::without_neighbours(&layout);
-        assert!(tree.has_neighbours() && !bare.has_neighbours());
-        assert_eq!(
-            (bare.samples(), bare.parents()),
-            (tree.samples(), tree.parents())
-        );
-        assert!((0..bare.len()).all(|k| bare.neighbours(k).is_empty()));
-        for k in 0..tree.len() {
-            let nb = tree.neighbours(k);
-            let want = match tree.kinds()[k] {
-                Kind::Face => 4,
-                Kind::Edge => 2,
-            };
-            assert_eq!(nb.len(), want, "node {k}");
-            for (a, &m) in nb.iter().enumerate() {
-                let m = m as usize;
-                assert_ne!(m, k);
-                assert_eq!(tree.levels()[m], tree.levels()[k]);
-                assert_ne!(tree.kinds()[m], tree.kinds()[k]);
-                assert!(!nb[..a].contains(&(m as u32)), "node {k} lists {m} twice");
-                assert!(tree.neighbours(m).contains(&(k as u32)), "{k} -> {m}");
+        for (base, level) in [(cube(), 3), (holed_grid(), 3)] {
+            let layout = Layout::new(base, level).unwrap();
+            let tree = ZeroTree::new(&layout);
+            let mut lonely = 0;
+            for k in 0..tree.len() {
+                let nb = tree.neighbours(k);
+                let node_of = |s: u32| tree.samples().iter().position(|&x| x == s).unwrap();
+                let mut nodes: Vec<usize> = nb.iter().map(|&s| node_of(s)).collect();
+                for (a, &m) in nodes.iter().enumerate() {
+                    assert_eq!(tree.levels()[m], tree.levels()[k]);
+                    assert_ne!(tree.kinds()[m], tree.kinds()[k]);
+                    assert!(!nodes[..a].contains(&m), "node {k} lists {m} twice");
+                    assert!(
+                        tree.neighbours(m).contains(&tree.samples()[k]),
+                        "{k} -> {m}"
+                    );
+                }
+                nodes.sort();
+                assert_eq!(nodes, walked_neighbours(&layout, &tree, k), "node {k}");
+                let want = match tree.kinds()[k] {
+                    Kind::Face => 4,
+                    Kind::Edge => 2,
+                };
+                if layout.base().boundary_edge_count() == 0 {
+                    assert_eq!(nb.len(), want, "node {k}");
+                } else if nb.len() < want {
+                    assert_eq!((tree.kinds()[k], nb.len()), (Kind::Edge, 1));
+                    lonely += 1;
+                }
             }
+            // Each boundary base edge has 2^(l-1) edge points at level l.
+            let per_edge: usize = (1..=level).map(|l| 1usize << (l - 1)).sum();
+            assert_eq!(lonely, layout.base().boundary_edge_count() * per_edge);
         }
-        let layout = Layout::new(holed_grid(), 3).unwrap();
-        let tree = ZeroTree::new(&layout);
-        for k in 0..tree.len() {
-            for &m in tree.neighbours(k).iter() {
-                assert!(
-                    tree.neighbours(m as usize).contains(&(k as u32)),
-                    "{k} -> {m}"
-                );
-            }
-        }
-        let lonely = (0..tree.len())
-            .filter(|&k| tree.kinds()[k] == Kind::Edge && tree.neighbours(k).len() == 1)
-            .count();
-        // Each boundary base edge has 2^l - 1 edge points at level l.
-        let per_edge: usize = (1..=3).map(|l| (1 << (l - 1)) as usize).sum();
-        assert_eq!(lonely, layout.base().boundary_edge_count() * per_edge);
     }
 
     #[test]
