@@ -20,6 +20,88 @@ pub const MAX_LEVEL: u32 = 12;
 /// Most samples a layout may hold (keeps ids in `u32` and memory bounded).
 pub const MAX_SAMPLES: u64 = 1 << 28;
 
+/// How a layout numbers its samples (the table in the module docs), as
+/// arithmetic: the id of a point from where it lies, and back.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Numbering {
+    vertices: u32,
+    edges: u32,
+    level: u32,
+}
+
+/// Where a sample lies ([`Numbering::place`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Place {
+    /// On a base vertex.
+    Vertex(u32),
+    /// Inside base edge `edge`, point `along` (`1..n`) from its `ends[0]`.
+    Edge { edge: u32, along: u32 },
+    /// Inside base face `face`, at `(i, j)` (both in `1..n`).
+    Face { face: u32, i: u32, j: u32 },
+}
+
+impl Numbering {
+    /// The numbering of `base` refined `level` times (its ids must fit in
+    /// `u32`, which [`Layout::new`] checks).
+    pub fn new(base: &BaseMesh, level: u32) -> Self {
+        Numbering {
+            vertices: base.vertex_count(),
+            edges: base.edges().len() as u32,
+            level,
+        }
+    }
+
+    /// Grid size per face side, `2^level`.
+    #[inline]
+    pub const fn n(self) -> u32 {
+        1 << self.level
+    }
+
+    /// The first id of the face interiors.
+    #[inline]
+    pub const fn first_interior(self) -> u32 {
+        self.vertices + self.edges * (self.n() - 1)
+    }
+
+    /// The id of point `along` (`1..n`) of base edge `edge`, from its
+    /// `ends[0]`.
+    #[inline]
+    pub const fn edge_sample(self, edge: u32, along: u32) -> u32 {
+        self.vertices + edge * (self.n() - 1) + along - 1
+    }
+
+    /// The id of interior point `(i, j)` (both in `1..n`) of base face
+    /// `face`.
+    #[inline]
+    pub const fn face_sample(self, face: u32, i: u32, j: u32) -> u32 {
+        let m = self.n() - 1;
+        self.first_interior() + (face * m + j - 1) * m + i - 1
+    }
+
+    /// Where sample `s` lies.
+    #[inline]
+    pub const fn place(self, s: u32) -> Place {
+        let m = self.n() - 1;
+        if s < self.vertices {
+            Place::Vertex(s)
+        } else if s < self.first_interior() {
+            let r = s - self.vertices;
+            Place::Edge {
+                edge: r / m,
+                along: r % m + 1,
+            }
+        } else {
+            let r = s - self.first_interior();
+            let (face, r) = (r / (m * m), r % (m * m));
+            Place::Face {
+                face,
+                i: r % m + 1,
+                j: r / m + 1,
+            }
+        }
+    }
+}
+
 /// The sample layout of a base mesh refined `level` times.
 #[derive(Clone, Debug)]
 pub struct Layout {
@@ -61,8 +143,6 @@ impl Layout {
             });
         }
         let n = 1u64 << level;
-        let v = base.vertex_count() as u64;
-        let e = base.edges().len() as u64;
         let f = base.faces().len() as u64;
         let samples = base.sample_count(level);
         let grid_len = f * (n + 1) * (n + 1);
@@ -74,15 +154,13 @@ impl Layout {
         }
         let n = n as usize;
         let side = n + 1;
-        let edge_base = v as usize;
-        let face_base = edge_base + e as usize * (n - 1);
+        let numbering = Numbering::new(&base, level);
         let mut grid = vec![0u32; grid_len as usize];
         for (fi, corners) in base.faces().iter().enumerate() {
             let g = &mut grid[fi * side * side..(fi + 1) * side * side];
             for j in 1..n {
                 for i in 1..n {
-                    g[j * side + i] =
-                        (face_base + fi * (n - 1) * (n - 1) + (j - 1) * (n - 1) + i - 1) as u32;
+                    g[j * side + i] = numbering.face_sample(fi as u32, i as u32, j as u32);
                 }
             }
             for k in 0..4u8 {
@@ -94,7 +172,7 @@ impl Layout {
                     let along = if forward { t } else { n - t };
                     let (i, j) = side_point(n as i32, k, t as i32, 0);
                     g[j as usize * side + i as usize] =
-                        (edge_base + edge * (n - 1) + along - 1) as u32;
+                        numbering.edge_sample(edge as u32, along as u32);
                 }
             }
         }
@@ -133,8 +211,13 @@ impl Layout {
     /// First id of the face interiors: ids below it lie on base vertices and
     /// edges, shared by the faces that meet there.
     pub(crate) fn first_interior(&self) -> usize {
-        let n = self.n();
-        self.base.vertex_count() as usize + self.base.edges().len() * (n - 1)
+        self.numbering().first_interior() as usize
+    }
+
+    /// The numbering of the samples, as arithmetic.
+    #[inline]
+    pub fn numbering(&self) -> Numbering {
+        Numbering::new(&self.base, self.level)
     }
 
     /// Number of base faces.
@@ -287,6 +370,54 @@ mod tests {
         assert_eq!(layout.quads(3).len(), 6 * 64);
         assert_eq!(layout.samples_at(0).len(), 8);
         assert_eq!(layout.samples_at(1).len(), 26);
+    }
+
+    /// [`Numbering::place`] finds every grid point where the grid has it:
+    /// corners on their vertex, side points on their edge (counted from
+    /// `ends[0]`), the rest inside their face.
+    #[test]
+    fn numbering_places_every_sample_where_the_grid_has_it() {
+        let layout = Layout::new(cube(), 3).unwrap();
+        let numbering = layout.numbering();
+        let n = layout.n() as u32;
+        let base = layout.base();
+        for f in 0..layout.face_count() {
+            for j in 0..=n {
+                for i in 0..=n {
+                    let s = layout.sample(f, i as usize, j as usize);
+                    let place = numbering.place(s);
+                    let on_side = |x: u32| x == 0 || x == n;
+                    match (on_side(i), on_side(j)) {
+                        (true, true) => assert_eq!(place, Place::Vertex(s)),
+                        (false, false) => {
+                            assert_eq!(
+                                place,
+                                Place::Face {
+                                    face: f as u32,
+                                    i,
+                                    j
+                                }
+                            );
+                            assert_eq!(numbering.face_sample(f as u32, i, j), s);
+                        }
+                        _ => {
+                            let Place::Edge { edge, along } = place else {
+                                panic!("{s} at ({i}, {j}) of face {f}: {place:?}");
+                            };
+                            assert_eq!(numbering.edge_sample(edge, along), s);
+                            // Point `along` of the edge, from `ends[0]`.
+                            let e = base.edges()[edge as usize];
+                            let from = (0..4).any(|c| {
+                                let (ci, cj) = side_point(n as i32, c, 0, 0);
+                                layout.sample(f, ci as usize, cj as usize) == e.ends[0]
+                                    && (i as i32 - ci).abs() + (j as i32 - cj).abs() == along as i32
+                            });
+                            assert!(from, "{s}: point {along} of edge {edge}");
+                        }
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -39,7 +39,7 @@
 //! `2h` away along the axes, 0.14 to 0.20 dB lower.
 //! The relation is mutual.
 
-use qm_lift::{BaseMesh, Layout};
+use qm_lift::{BaseMesh, Layout, Numbering, Place};
 
 pub use qm_lift;
 
@@ -67,9 +67,10 @@ pub struct ZeroTree {
     level_starts: Vec<usize>,
     max_level: u32,
     base_vertices: usize,
-    /// The base mesh, whose edges and sides locate the samples on base
-    /// edges (for [`Self::neighbours`]).
+    /// The base mesh and the samples' numbering, which locate a node's
+    /// neighbours (for [`Self::neighbours`]).
     base: BaseMesh,
+    numbering: Numbering,
 }
 
 /// The neighbours of a node (at most four), as a slice of sample ids.
@@ -113,6 +114,7 @@ impl ZeroTree {
                 max_level: big_l,
                 base_vertices: base.vertex_count() as usize,
                 base: base.clone(),
+                numbering: layout.numbering(),
             };
         }
         // Every array has one entry per node: filled in place, not pushed.
@@ -127,6 +129,7 @@ impl ZeroTree {
             max_level: big_l,
             base_vertices: base.vertex_count() as usize,
             base: base.clone(),
+            numbering: layout.numbering(),
         };
         // Grid position of each node: face, then `x | y << 16`.
         let mut at: Vec<(u32, u32)> = Vec::with_capacity(count);
@@ -198,78 +201,73 @@ impl ZeroTree {
     /// neighbours of each of them.
     #[inline]
     pub fn neighbours(&self, k: usize) -> Neighbours {
-        let h = 1i64 << (self.max_level - self.levels[k] as u32);
-        let n = 1i64 << self.max_level;
-        let m = n - 1;
-        let s = self.samples[k] as i64;
-        let v = self.base_vertices as i64;
-        let first_interior = v + self.base.edges().len() as i64 * m;
-        // The id of grid point `(i, j)` of face `f`, off its corners.
-        let id = |f: i64, i: i64, j: i64| -> u32 {
-            if (1..n).contains(&i) && (1..n).contains(&j) {
-                return (first_interior + (f * m + j - 1) * m + i - 1) as u32;
-            }
-            let k = match (i, j) {
-                (_, 0) => 0u8,
-                (i, _) if i == n => 1,
-                (_, j) if j == n => 2,
-                _ => 3,
-            };
-            let (t, _) = qm_lift::side_coords(n as i32, k, i as i32, j as i32);
-            let along = if self.base.owns(f as u32, k) {
-                t as i64
-            } else {
-                n - t as i64
-            };
-            let e = self.base.face_edges()[f as usize][k as usize] as i64;
-            (v + e * m + along - 1) as u32
-        };
+        let numbering = self.numbering;
+        let h = 1u32 << (self.max_level - self.levels[k] as u32);
+        let n = numbering.n();
         let mut found = Neighbours::default();
         let mut push = |id: u32| {
             found.ids[found.len as usize] = id;
             found.len += 1;
         };
-        if s >= first_interior {
-            // Inside a face: the offsets that land on the same level, all
-            // within the face (a level-`l` coordinate is at least `h` from
-            // the border when it is an odd multiple of `h`).
-            let (r, m32) = ((s - first_interior) as u32, m as u32);
-            let (f, r) = (r / (m32 * m32), r % (m32 * m32));
-            let (f, x, y) = (f as i64, (r % m32 + 1) as i64, (r / m32 + 1) as i64);
-            if x > h && x + h < n && y > h && y + h < n {
-                // All of them inside too: one row is `m` ids.
+        match numbering.place(self.samples[k]) {
+            Place::Face { face, i: x, j: y } => {
+                // The offsets that land on the same level: a level-`l`
+                // coordinate is an odd multiple of `h`, so all of them stay
+                // within the face, and on its sides at worst.
                 let (odd_x, odd_y) = (x & h != 0, y & h != 0);
-                if odd_x {
-                    push((s - h * m) as u32);
-                    push((s + h * m) as u32);
-                }
-                if odd_y {
-                    push((s - h) as u32);
-                    push((s + h) as u32);
-                }
-                return found;
-            }
-            for (dx, dy) in NEIGHBOUR_OFFSETS {
-                let (i, j) = (x + dx as i64 * h, y + dy as i64 * h);
-                // Both coordinates multiples of `2h`: a coarser sample.
-                if (i | j) & h != 0 {
-                    push(id(f, i, j));
-                }
-            }
-        } else {
-            // On a base edge: the face points at depth `h` in the faces on
-            // either side.
-            let (r, m32) = ((s - v) as u32, m as u32);
-            let (e, along) = (r / m32, (r % m32 + 1) as i64);
-            let edge = &self.base.edges()[e as usize];
-            for (side, t) in [(edge.sides[0], along), (edge.sides[1], n - along)] {
-                if side.exists() {
-                    let (i, j) = qm_lift::side_point(n as i32, side.side, t as i32, h as i32);
-                    push(id(side.face as i64, i as i64, j as i64));
+                if x > h && x + h < n && y > h && y + h < n {
+                    // All inside.
+                    if odd_x {
+                        push(numbering.face_sample(face, x, y - h));
+                        push(numbering.face_sample(face, x, y + h));
+                    }
+                    if odd_y {
+                        push(numbering.face_sample(face, x - h, y));
+                        push(numbering.face_sample(face, x + h, y));
+                    }
+                } else {
+                    // Both coordinates multiples of `2h`: a coarser sample.
+                    let (x, y, h) = (x as i32, y as i32, h as i32);
+                    for (dx, dy) in NEIGHBOUR_OFFSETS {
+                        let (i, j) = (x + dx * h, y + dy * h);
+                        if (i | j) & h != 0 {
+                            push(self.sample_at(face, i, j));
+                        }
+                    }
                 }
             }
+            Place::Edge { edge, along } => {
+                // The face points at depth `h` in the faces on either side.
+                let edge = &self.base.edges()[edge as usize];
+                for (side, t) in [(edge.sides[0], along), (edge.sides[1], n - along)] {
+                    if side.exists() {
+                        let (i, j) = qm_lift::side_point(n as i32, side.side, t as i32, h as i32);
+                        push(self.sample_at(side.face, i, j));
+                    }
+                }
+            }
+            Place::Vertex(_) => {}
         }
         found
+    }
+
+    /// The id of point `(i, j)` of face `f`, inside it or on a side (not a
+    /// corner).
+    fn sample_at(&self, f: u32, i: i32, j: i32) -> u32 {
+        let n = self.numbering.n() as i32;
+        if (1..n).contains(&i) && (1..n).contains(&j) {
+            return self.numbering.face_sample(f, i as u32, j as u32);
+        }
+        let side = match (i, j) {
+            (_, 0) => 0u8,
+            (i, _) if i == n => 1,
+            (_, j) if j == n => 2,
+            _ => 3,
+        };
+        let (t, _) = qm_lift::side_coords(n, side, i, j);
+        let along = if self.base.owns(f, side) { t } else { n - t };
+        let edge = self.base.face_edges()[f as usize][side as usize];
+        self.numbering.edge_sample(edge, along as u32)
     }
 
     /// Children of the level-`l` node at `(x, y)` of face `f`, `h = 2^(L-l)`,
@@ -580,7 +578,7 @@ mod tests {
     /// mutual. On the holed grid an edge point on the boundary has one.
     #[test]
     fn neighbours_are_the_nearest_points_of_the_level() {
-        for (base, level) in [(cube(), 3), (holed_grid(), 3)] {
+        for (base, level) in [(cube(), 1), (cube(), 2), (cube(), 4), (holed_grid(), 3)] {
             let layout = Layout::new(base, level).unwrap();
             let tree = ZeroTree::new(&layout);
             let mut lonely = 0;
