@@ -71,10 +71,12 @@ pub enum Frames {
     /// level on (3 to `MAX_LEVEL + 1`), from the level `l - 1` quads below.
     ParentsFrom(u32),
     /// Local frames, parents from level 3 or from level 4, whichever
-    /// stream's cuts come closer to the mesh (see `AUTO_CUTS`): costs a
-    /// second encoding. Level 4 keeps more of the frames' gain on smooth
-    /// models, level 3 is safer on dense scans, whose small, thin quads
-    /// turn their normals a lot while the stream is cut.
+    /// stream's cuts come closer to the mesh (see `AUTO_CUTS`), then from
+    /// 5, 6, ... while each brings them [`AUTO_MIN_GAIN_DB`] closer: costs
+    /// one encoding per level tried. Level 4 keeps more of the frames' gain
+    /// on smooth models, level 3 is safer on dense scans, whose small, thin
+    /// quads turn their normals a lot while the stream is cut; later
+    /// starts help creased models at high rates.
     Auto,
 }
 
@@ -86,6 +88,13 @@ pub enum Frames {
 /// (every power from 3 to 7) chose the same source on all ten development
 /// models.
 pub const AUTO_CUTS: [u32; 3] = [7, 5, 3];
+
+/// How much closer, in dB of the mean squared error at [`AUTO_CUTS`], a
+/// start of the parent frames after level 4 must bring the cuts for
+/// [`Frames::Auto`] to take it (and try the one after it). Smaller gains come with
+/// larger lossless files (a later start codes the finest levels in frames
+/// from smaller quads, which costs their last passes).
+pub const AUTO_MIN_GAIN_DB: f64 = 0.15;
 
 impl EncodeOptions {
     /// The defaults: 16 bits, every pass, no size cap, mean-preserving
@@ -236,13 +245,15 @@ pub fn compress_probed(
             compress_with(kind as u8)?
         }
         Frames::Auto => {
-            // Parents from level 3 (kind 1) or 4 (kind 2); they differ only
-            // where level 3 exists.
+            // Parents from level 3 (kind 1) or 4 (kind 2), whichever cuts
+            // come closer; from 4 on, each next level while the cuts come
+            // closer by `AUTO_MIN_GAIN_DB`. From level `L + 1` (kind
+            // `L - 1`) no level takes its frames from the parents.
             let first = compress_with(1)?;
-            if mesh.layout().level() < 3 {
+            let last = (mesh.layout().level().saturating_sub(1)).min(container::MAX_FRAMES as u32);
+            if last < 2 {
                 first
             } else {
-                let second = compress_with(2)?;
                 let normals = sample_normals(mesh.layout(), &quantized);
                 // Cuts of what will be sent, shortest first so that each
                 // decode resumes from the previous one's checkpoint.
@@ -251,11 +262,22 @@ pub fn compress_probed(
                     .map_or(first.bytes.len(), |m| m.min(first.bytes.len()));
                 let budgets = AUTO_CUTS.map(|k| sent >> k);
                 let score = |c: &Compressed| cut_error(c, &normals, &budgets);
-                if score(&second)? < score(&first)? {
-                    second
-                } else {
-                    first
+                // The score is a sum of natural logs of squared errors.
+                let margin =
+                    AUTO_CUTS.len() as f64 * AUTO_MIN_GAIN_DB * std::f64::consts::LN_10 / 10.0;
+                let mut best_score = score(&first)?;
+                let mut best = first;
+                for kind in 2..=last {
+                    let next = compress_with(kind as u8)?;
+                    let next_score = score(&next)?;
+                    // Levels 3 and 4 by which comes closer at all.
+                    let margin = if kind == 2 { 0.0 } else { margin };
+                    if next_score >= best_score - margin {
+                        break;
+                    }
+                    (best, best_score) = (next, next_score);
                 }
+                best
             }
         }
     };
@@ -880,7 +902,7 @@ mod tests {
     /// the automatic choice is one of its two candidates, byte for byte, the
     /// one whose cuts err less along the normal.
     #[test]
-    fn frame_sources_round_trip_and_auto_keeps_the_closer_one() {
+    fn frame_sources_round_trip_and_auto_keeps_the_closest_one() {
         let mesh = sphere(5);
         // Without holds: the choice is made before them, on the bare streams.
         let options = EncodeOptions::DEFAULT.with_holds(false);
@@ -899,13 +921,26 @@ mod tests {
         let normals = sample_normals(mesh.layout(), &from3.quantized);
         let budgets = AUTO_CUTS.map(|k| from3.bytes.len() >> k);
         let error = |c: &Compressed| cut_error(c, &normals, &budgets).unwrap();
-        let (closer, further) = if error(&from4) < error(&from3) {
-            (&from4, &from3)
+        // The documented rule: 3 or 4, whichever errs less; from 4, each
+        // later level while it errs at least `AUTO_MIN_GAIN_DB` less.
+        let margin = AUTO_CUTS.len() as f64 * AUTO_MIN_GAIN_DB * std::f64::consts::LN_10 / 10.0;
+        let four_wins = error(&from4) < error(&from3);
+        let (mut chosen, mut passed_over) = if four_wins {
+            (from4, from3)
         } else {
-            (&from3, &from4)
+            (from3, from4)
         };
-        assert_eq!(auto.bytes, closer.bytes);
-        assert_ne!(auto.bytes, further.bytes);
+        if four_wins {
+            for level in 5..=mesh.layout().level() + 1 {
+                let next = with(Frames::ParentsFrom(level));
+                if error(&next) >= error(&chosen) - margin {
+                    break;
+                }
+                passed_over = std::mem::replace(&mut chosen, next);
+            }
+        }
+        assert_eq!(auto.bytes, chosen.bytes);
+        assert_ne!(auto.bytes, passed_over.bytes);
         for level in [0, 2, 14] {
             let options = EncodeOptions::DEFAULT.with_frame_source(Frames::ParentsFrom(level));
             assert!(compress(&mesh, &options).is_err(), "parents from {level}");

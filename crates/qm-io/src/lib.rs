@@ -18,8 +18,8 @@ pub mod mesh;
 mod polymesh;
 
 pub use codec::{
-    BasePlacement, Compressed, DecodeOptions, DecodeStatus, Decoder, Decompressed, EncodeOptions,
-    Frames, compress, compress_probed, decompress,
+    AUTO_CUTS, AUTO_MIN_GAIN_DB, BasePlacement, Compressed, DecodeOptions, DecodeStatus, Decoder,
+    Decompressed, EncodeOptions, Frames, compress, compress_probed, decompress,
 };
 pub use container::Limits;
 pub use error::{Error, Result};
