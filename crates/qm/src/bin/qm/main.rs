@@ -58,8 +58,9 @@ enum Command {
         #[arg(long)]
         no_frames: bool,
         /// Local frames take their normals from the parent quads from this
-        /// level on (default: 3 or 4, whichever codes the mesh better;
-        /// giving it skips the second encoding).
+        /// level on (default: 3 or 4, whichever codes the mesh better, or a
+        /// later one if it codes it clearly better still; giving it skips
+        /// the extra encodings).
         #[arg(long, conflicts_with = "no_frames", value_parser = clap::value_parser!(u32).range(3..=qm::lift::MAX_LEVEL as i64 + 1))]
         frames_from: Option<u32>,
         /// Write no holds (default: the encoder decodes its stream at many
