@@ -1150,7 +1150,7 @@ mod tests {
 
     /// The packed neighbour counts give the contexts the plain counts
     /// would, for every way up to four neighbours can become significant
-    /// and open, in any coordinate, whatever the order.
+    /// and open, in any coordinate.
     #[test]
     fn packed_neighbour_counts_match_plain_counts() {
         // Each of four neighbours: significant positive, negative, or not,

@@ -72,11 +72,12 @@ pub enum Frames {
     ParentsFrom(u32),
     /// Local frames, parents from level 3 or from level 4, whichever
     /// stream's cuts come closer to the mesh (see `AUTO_CUTS`); if 4, then
-    /// from 5, 6, ... while each brings them more than [`AUTO_MIN_GAIN_DB`]
-    /// closer: costs one encoding per level tried. Level 4 keeps more of the frames' gain
-    /// on smooth models, level 3 is safer on dense scans, whose small, thin
-    /// quads turn their normals a lot while the stream is cut; later
-    /// starts help creased models at high rates.
+    /// from 5, 6, ... while each brings them more than
+    /// [`AUTO_MIN_GAIN_DB`] closer: costs one encoding per level tried.
+    /// Level 4 keeps more of the frames' gain on smooth models, level 3 is
+    /// safer on dense scans, whose small, thin quads turn their normals a
+    /// lot while the stream is cut; later starts help creased models at
+    /// high rates.
     Auto,
 }
 
@@ -89,13 +90,26 @@ pub enum Frames {
 /// models.
 pub const AUTO_CUTS: [u32; 3] = [7, 5, 3];
 
-/// How much closer, in dB of the mean squared error at [`AUTO_CUTS`]
-/// (on average over them), a start of the parent frames after level 4
-/// must bring the cuts, more than, for [`Frames::Auto`] to take it (and
-/// try the one after it). Smaller gains come with
-/// larger lossless files (a later start codes the finest levels in frames
-/// from smaller quads, which costs their last passes).
+/// [`Frames::Auto`] takes a start of the parent frames after level 4 (and
+/// tries the next) only if it brings the cuts at [`AUTO_CUTS`] more than
+/// this much closer, in dB of their mean squared error on average over
+/// them. Smaller gains come with larger lossless files (a later start
+/// codes the finest levels in frames from smaller quads, which costs
+/// their last passes).
 pub const AUTO_MIN_GAIN_DB: f64 = 0.15;
+
+/// How much lower than the best so far a candidate's `cut_error` must be
+/// for [`Frames::Auto`] to take frame kind `kind` (parents from level
+/// `kind + 2`): anything lower for level 4 against 3, [`AUTO_MIN_GAIN_DB`]
+/// on average over the cuts after that (the error is a sum of natural logs
+/// of mean squared errors).
+fn auto_margin(kind: u32) -> f64 {
+    if kind <= 2 {
+        0.0
+    } else {
+        AUTO_CUTS.len() as f64 * AUTO_MIN_GAIN_DB * std::f64::consts::LN_10 / 10.0
+    }
+}
 
 impl EncodeOptions {
     /// The defaults: 16 bits, every pass, no size cap, mean-preserving
@@ -263,17 +277,12 @@ pub fn compress_probed(
                     .map_or(first.bytes.len(), |m| m.min(first.bytes.len()));
                 let budgets = AUTO_CUTS.map(|k| sent >> k);
                 let score = |c: &Compressed| cut_error(c, &normals, &budgets);
-                // The score is a sum of natural logs of squared errors.
-                let margin =
-                    AUTO_CUTS.len() as f64 * AUTO_MIN_GAIN_DB * std::f64::consts::LN_10 / 10.0;
                 let mut best_score = score(&first)?;
                 let mut best = first;
                 for kind in 2..=last {
                     let next = compress_with(kind as u8)?;
                     let next_score = score(&next)?;
-                    // Levels 3 and 4 by which comes closer at all.
-                    let margin = if kind == 2 { 0.0 } else { margin };
-                    if next_score >= best_score - margin {
+                    if next_score >= best_score - auto_margin(kind) {
                         break;
                     }
                     (best, best_score) = (next, next_score);
@@ -925,7 +934,6 @@ mod tests {
         let error = |c: &Compressed| cut_error(c, &normals, &budgets).unwrap();
         // The documented rule: 3 or 4, whichever errs less; from 4, each
         // later level while it errs more than `AUTO_MIN_GAIN_DB` less.
-        let margin = AUTO_CUTS.len() as f64 * AUTO_MIN_GAIN_DB * std::f64::consts::LN_10 / 10.0;
         let four_wins = error(&from4) < error(&from3);
         assert!(four_wins, "the test mesh no longer tries levels past 4");
         let (mut chosen, mut passed_over) = if four_wins {
@@ -936,7 +944,7 @@ mod tests {
         if four_wins {
             for level in 5..=mesh.layout().level() + 1 {
                 let next = with(Frames::ParentsFrom(level));
-                if error(&next) >= error(&chosen) - margin {
+                if error(&next) >= error(&chosen) - auto_margin(level - 2) {
                     break;
                 }
                 passed_over = std::mem::replace(&mut chosen, next);

@@ -78,6 +78,19 @@ impl Numbering {
         self.first_interior() + (face * m + j - 1) * m + i - 1
     }
 
+    /// The id of point `t` (`1..n`, from corner `side`) of side `side` of
+    /// base face `face`: the point of its edge counted from the edge's
+    /// `ends[0]` when the face owns the edge, from the other end if not.
+    #[inline]
+    pub fn side_sample(self, base: &BaseMesh, face: u32, side: u8, t: u32) -> u32 {
+        let along = if base.owns(face, side) {
+            t
+        } else {
+            self.n() - t
+        };
+        self.edge_sample(base.face_edges()[face as usize][side as usize], along)
+    }
+
     /// Where sample `s` lies.
     #[inline]
     pub const fn place(self, s: u32) -> Place {
@@ -166,13 +179,10 @@ impl Layout {
             for k in 0..4u8 {
                 let (ci, cj) = side_point(n as i32, k, 0, 0);
                 g[cj as usize * side + ci as usize] = corners[k as usize];
-                let forward = base.owns(fi as u32, k);
-                let edge = base.face_edges()[fi][k as usize] as usize;
                 for t in 1..n {
-                    let along = if forward { t } else { n - t };
                     let (i, j) = side_point(n as i32, k, t as i32, 0);
                     g[j as usize * side + i as usize] =
-                        numbering.edge_sample(edge as u32, along as u32);
+                        numbering.side_sample(&base, fi as u32, k, t as u32);
                 }
             }
         }

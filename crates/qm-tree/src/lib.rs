@@ -66,11 +66,9 @@ pub struct ZeroTree {
     child_counts: Vec<u8>,
     level_starts: Vec<usize>,
     max_level: u32,
-    base_vertices: usize,
-    /// The base mesh and the samples' numbering, which locate a node's
+    /// The base mesh, whose numbering of the samples locates a node's
     /// neighbours (for [`Self::neighbours`]).
     base: BaseMesh,
-    numbering: Numbering,
 }
 
 /// The neighbours of a node (at most four), as a slice of sample ids.
@@ -112,9 +110,7 @@ impl ZeroTree {
                 child_counts: Vec::new(),
                 level_starts: vec![0],
                 max_level: big_l,
-                base_vertices: base.vertex_count() as usize,
                 base: base.clone(),
-                numbering: layout.numbering(),
             };
         }
         // Every array has one entry per node: filled in place, not pushed.
@@ -127,9 +123,7 @@ impl ZeroTree {
             child_counts: vec![0; count],
             level_starts: vec![0],
             max_level: big_l,
-            base_vertices: base.vertex_count() as usize,
             base: base.clone(),
-            numbering: layout.numbering(),
         };
         // Grid position of each node: face, then `x | y << 16`.
         let mut at: Vec<(u32, u32)> = Vec::with_capacity(count);
@@ -201,7 +195,7 @@ impl ZeroTree {
     /// neighbours of each of them.
     #[inline]
     pub fn neighbours(&self, k: usize) -> Neighbours {
-        let numbering = self.numbering;
+        let numbering = self.numbering();
         let h = 1u32 << (self.max_level - self.levels[k] as u32);
         let n = numbering.n();
         let mut found = Neighbours::default();
@@ -211,22 +205,21 @@ impl ZeroTree {
         };
         match numbering.place(self.samples[k]) {
             Place::Face { face, i: x, j: y } => {
-                // The offsets that land on the same level: a level-`l`
-                // coordinate is an odd multiple of `h`, so all of them stay
-                // within the face, and on its sides at worst.
-                let (odd_x, odd_y) = (x & h != 0, y & h != 0);
+                // A level-`l` coordinate is an odd multiple of `h`, so every
+                // offset stays within the face, on a side at worst; those
+                // whose coordinates are both multiples of `2h` land on a
+                // coarser sample. Away from the sides, the two tests come
+                // down to which coordinate is odd (3% off a lossless decode).
                 if x > h && x + h < n && y > h && y + h < n {
-                    // All inside.
-                    if odd_x {
+                    if x & h != 0 {
                         push(numbering.face_sample(face, x, y - h));
                         push(numbering.face_sample(face, x, y + h));
                     }
-                    if odd_y {
+                    if y & h != 0 {
                         push(numbering.face_sample(face, x - h, y));
                         push(numbering.face_sample(face, x + h, y));
                     }
                 } else {
-                    // Both coordinates multiples of `2h`: a coarser sample.
                     let (x, y, h) = (x as i32, y as i32, h as i32);
                     for (dx, dy) in NEIGHBOUR_OFFSETS {
                         let (i, j) = (x + dx * h, y + dy * h);
@@ -251,12 +244,19 @@ impl ZeroTree {
         found
     }
 
+    /// How the layout numbers the samples.
+    #[inline]
+    fn numbering(&self) -> Numbering {
+        Numbering::new(&self.base, self.max_level)
+    }
+
     /// The id of point `(i, j)` of face `f`, inside it or on a side (not a
     /// corner).
     fn sample_at(&self, f: u32, i: i32, j: i32) -> u32 {
-        let n = self.numbering.n() as i32;
+        let numbering = self.numbering();
+        let n = numbering.n() as i32;
         if (1..n).contains(&i) && (1..n).contains(&j) {
-            return self.numbering.face_sample(f, i as u32, j as u32);
+            return numbering.face_sample(f, i as u32, j as u32);
         }
         let side = match (i, j) {
             (_, 0) => 0u8,
@@ -265,9 +265,7 @@ impl ZeroTree {
             _ => 3,
         };
         let (t, _) = qm_lift::side_coords(n, side, i, j);
-        let along = if self.base.owns(f, side) { t } else { n - t };
-        let edge = self.base.face_edges()[f as usize][side as usize];
-        self.numbering.edge_sample(edge, along as u32)
+        numbering.side_sample(&self.base, f, side, t as u32)
     }
 
     /// Children of the level-`l` node at `(x, y)` of face `f`, `h = 2^(L-l)`,
@@ -386,7 +384,7 @@ impl ZeroTree {
     /// Number of base vertices: the level-0 values, which are not nodes
     /// (sample ids `0..base_vertices`).
     pub fn base_vertices(&self) -> usize {
-        self.base_vertices
+        self.base.vertex_count() as usize
     }
 
     /// Node range of level `l` (1 ..= L).
