@@ -202,8 +202,12 @@ pub struct Encoded {
 /// Result of decoding a (possibly cut) stream.
 #[derive(Clone, Debug)]
 pub struct Decoded {
-    /// Reconstructed coefficients in node order.
-    pub coefs: Vec<Coef>,
+    /// The reconstructed coordinates that are not zero, one entry each
+    /// (every other coordinate is zero): a short cut has few, so they are
+    /// kept sparse; [`Decoded::coefs`] and [`Decoded::scatter`] spread them.
+    pub nonzero: Vec<Nonzero>,
+    /// The number of nodes.
+    pub nodes: usize,
     /// Reconstructed low [`StreamParams::base_bits`] bits of each base
     /// value (in `0 .. 2^base_bits`, the centre of what is known), to add
     /// to its high part `(value >> base_bits) << base_bits`; empty when the
@@ -215,6 +219,37 @@ pub struct Decoded {
     pub truncated: bool,
     /// Stream bytes read.
     pub bytes_read: usize,
+}
+
+/// A decoded coordinate that is not zero.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Nonzero {
+    /// The node.
+    pub node: u32,
+    /// The coordinate (0, 1 or 2).
+    pub coord: u8,
+    /// Its value.
+    pub value: i32,
+}
+
+impl Decoded {
+    /// Every coefficient, in node order.
+    pub fn coefs(&self) -> Vec<Coef> {
+        let mut coefs = vec![[0; 3]; self.nodes];
+        for e in &self.nonzero {
+            coefs[e.node as usize][e.coord as usize] = e.value;
+        }
+        coefs
+    }
+
+    /// Writes the coordinates that are not zero into `by_sample`, at the
+    /// sample of their node (`samples`, as [`ZeroTree::samples`] gives);
+    /// the others keep what they hold.
+    pub fn scatter(&self, samples: &[u32], by_sample: &mut [Coef]) {
+        for e in &self.nonzero {
+            by_sample[samples[e.node as usize] as usize][e.coord as usize] = e.value;
+        }
+    }
 }
 
 /// Base values whose low bits a stream is to carry.
@@ -450,7 +485,8 @@ fn run_decoder(
         save(&mut saved, &state, &reader, done);
     }
     let decoded = Decoded {
-        coefs: state.reconstruct(),
+        nonzero: state.reconstruct(),
+        nodes: tree.len(),
         base_low: state.reconstruct_base(),
         passes: done,
         truncated,
@@ -1050,16 +1086,20 @@ impl State {
         Ok(())
     }
 
-    /// Centre of every coefficient's uncertainty interval (zero for the
-    /// coordinates not yet significant).
-    fn reconstruct(&self) -> Vec<Coef> {
-        let mut coefs = vec![[0; 3]; self.sig.len()];
-        for e in self.refine_lists.iter().flatten() {
-            let (k, c) = (e.node as usize, e.coord as usize);
+    /// Centre of the uncertainty interval of every significant coordinate
+    /// (the others are zero).
+    fn reconstruct(&self) -> Vec<Nonzero> {
+        let significant = self.refine_lists.iter().flatten();
+        let nonzero = significant.map(|e| {
             let m = centre(e.mag, e.low) as i32;
-            coefs[k][c] = if self.neg[k] & (1 << c) != 0 { -m } else { m };
-        }
-        coefs
+            let negative = self.neg[e.node as usize] & (1 << e.coord) != 0;
+            Nonzero {
+                node: e.node,
+                coord: e.coord,
+                value: if negative { -m } else { m },
+            }
+        });
+        nonzero.collect()
     }
 
     /// Centre of every base value's low bits (zeros without base bits).
@@ -1211,7 +1251,7 @@ mod tests {
                 let dec = decode(&tree, enc.params, &enc.bytes, None);
                 assert!(!dec.truncated);
                 assert_eq!(dec.passes, enc.params.planes);
-                assert_eq!(dec.coefs, c);
+                assert_eq!(dec.coefs(), c);
                 assert!(dec.base_low.is_empty());
             }
         }
@@ -1249,7 +1289,7 @@ mod tests {
             let enc = encode_all_bits(&tree, &c, &b, weighting);
             assert_eq!(enc.params.base_bits, bits, "{weighting:?}");
             let dec = decode(&tree, enc.params, &enc.bytes, None);
-            assert_eq!(dec.coefs, c);
+            assert_eq!(dec.coefs(), c);
             assert_eq!(join_base(&b, &dec, bits), b, "{weighting:?}");
             // The high parts alone cost nothing in the stream: the same
             // stream as without base bits plus the low bits.
@@ -1263,7 +1303,7 @@ mod tests {
                 let fewer = encode(&tree, &c, base, weighting, Contexts::default(), None);
                 assert_eq!(fewer.params.base_bits, most.min(bits));
                 let dec = decode(&tree, fewer.params, &fewer.bytes, None);
-                assert_eq!(dec.coefs, c);
+                assert_eq!(dec.coefs(), c);
                 assert_eq!(join_base(&b, &dec, most.min(bits)), b);
                 assert!(fewer.bytes.len() <= enc.bytes.len());
             }
@@ -1324,7 +1364,7 @@ mod tests {
         );
         assert_eq!(enc.params.planes, 0);
         let dec = decode(&tree, enc.params, &enc.bytes, None);
-        assert!(dec.coefs.iter().all(|c| *c == [0; 3]));
+        assert!(dec.coefs().iter().all(|c| *c == [0; 3]));
     }
 
     #[test]
@@ -1351,7 +1391,7 @@ mod tests {
                 .chain([enc.bytes.len()])
             {
                 let dec = decode(&tree, enc.params, &enc.bytes[..cut], None);
-                let err = sq_error(&dec.coefs, &c) + sq_error(&join_base(&b, &dec, k), &b);
+                let err = sq_error(&dec.coefs(), &c) + sq_error(&join_base(&b, &dec, k), &b);
                 assert!(err <= last, "cut {cut}: {err} > {last}");
                 last = err;
             }
@@ -1431,7 +1471,7 @@ mod tests {
                 resumed += (Checkpoint::passes(c) > 0) as usize;
             }
             let (got, next) = decode_resuming(&tree, enc.params, data, None, from);
-            assert_eq!(got.coefs, fresh.coefs, "cut {cut}");
+            assert_eq!(got.coefs(), fresh.coefs(), "cut {cut}");
             assert_eq!(got.base_low, fresh.base_low, "cut {cut}");
             assert_eq!((got.passes, got.truncated), (fresh.passes, fresh.truncated));
             checkpoint = next;
@@ -1448,10 +1488,10 @@ mod tests {
         );
         let fresh = decode(&tree, other.params, &other.bytes, None);
         let (got, _) = decode_resuming(&tree, other.params, &other.bytes, None, checkpoint.clone());
-        assert_eq!(got.coefs, fresh.coefs);
+        assert_eq!(got.coefs(), fresh.coefs());
         let fresh = decode(&tree, enc.params, &enc.bytes, Some(3));
         let (got, _) = decode_resuming(&tree, enc.params, &enc.bytes, Some(3), checkpoint);
-        assert_eq!(got.coefs, fresh.coefs);
+        assert_eq!(got.coefs(), fresh.coefs());
     }
 
     #[test]
@@ -1477,7 +1517,7 @@ mod tests {
         assert_eq!(four.params.passes, 4);
         let a = decode(&tree, four.params, &four.bytes, None);
         let b = decode(&tree, full.params, &full.bytes, Some(4));
-        assert_eq!(a.coefs, b.coefs);
+        assert_eq!(a.coefs(), b.coefs());
         assert_eq!(a.passes, 4);
         assert!(full.pass_ends.windows(2).all(|w| w[0] <= w[1]));
     }

@@ -800,7 +800,7 @@ impl Decoder {
                 *v = std::array::from_fn(|c| (v[c] << k) + low[c]);
             }
         }
-        self.tree.scatter(&decoded.coefs, values);
+        decoded.scatter(self.tree.samples(), values);
         let level = level.map_or(self.layout.level(), |l| l.min(self.layout.level()));
         let update = UpdateRule::from_code(self.header.update).expect("checked by the container");
         Lifting::new(&self.layout, update)
