@@ -72,8 +72,9 @@ pub enum Frames {
     ParentsFrom(u32),
     /// Local frames, parents from level 3 or from level 4, whichever
     /// stream's cuts come closer to the mesh (see `AUTO_CUTS`); if 4, then
-    /// from 5, 6, ... while each brings them more than
-    /// [`AUTO_MIN_GAIN_DB`] closer: costs one encoding per level tried.
+    /// each of 5, 6, ... up to `L + 1` in turn replaces the best so far if
+    /// it brings the cuts more than [`AUTO_MIN_GAIN_DB`] closer than that
+    /// one: costs one encoding per level tried.
     /// Level 4 keeps more of the frames' gain on smooth models, level 3 is
     /// safer on dense scans, whose small, thin quads turn their normals a
     /// lot while the stream is cut; later starts help creased models at
@@ -90,10 +91,11 @@ pub enum Frames {
 /// models.
 pub const AUTO_CUTS: [u32; 3] = [7, 5, 3];
 
-/// [`Frames::Auto`] takes a start of the parent frames after level 4 (and
-/// tries the next) only if it brings the cuts at [`AUTO_CUTS`] more than
-/// this much closer, in dB of their mean squared error on average over
-/// them. Smaller gains come with larger lossless files (a later start
+/// [`Frames::Auto`] takes a start of the parent frames after level 4 only
+/// if it brings the cuts at [`AUTO_CUTS`] more than this much closer than
+/// the best start so far, in dB of their mean squared error on average
+/// over them (a level that falls short does not end the search: two small
+/// steps can make one that counts). Smaller gains come with larger lossless files (a later start
 /// codes the finest levels in frames from smaller quads, which costs
 /// their last passes).
 pub const AUTO_MIN_GAIN_DB: f64 = 0.15;
@@ -109,6 +111,32 @@ fn auto_margin(kind: u32) -> f64 {
     } else {
         AUTO_CUTS.len() as f64 * AUTO_MIN_GAIN_DB * std::f64::consts::LN_10 / 10.0
     }
+}
+
+/// The search of [`Frames::Auto`] over frame kinds `1..=last` (`last` at
+/// least 2), given the stream of kind 1: `encode` makes the stream of a
+/// kind, `score` its `cut_error`. Kind 2 replaces kind 1 if it errs less,
+/// and only then are later kinds tried; each replaces the best so far if
+/// it errs less by more than `auto_margin`.
+fn auto_search<T>(
+    first: T,
+    last: u32,
+    mut encode: impl FnMut(u32) -> Result<T>,
+    mut score: impl FnMut(&T) -> Result<f64>,
+) -> Result<T> {
+    let mut best_score = score(&first)?;
+    let mut best = first;
+    for kind in 2..=last {
+        let next = encode(kind)?;
+        let next_score = score(&next)?;
+        if next_score < best_score - auto_margin(kind) {
+            (best, best_score) = (next, next_score);
+        } else if kind == 2 {
+            // Level 3 won: no later start is tried.
+            break;
+        }
+    }
+    Ok(best)
 }
 
 impl EncodeOptions {
@@ -261,9 +289,10 @@ pub fn compress_probed(
         }
         Frames::Auto => {
             // Parents from level 3 (kind 1) or 4 (kind 2), whichever cuts
-            // come closer; from 4 on, each next level while the cuts come
-            // closer by more than `AUTO_MIN_GAIN_DB`. From level `L + 1` (kind
-            // `L - 1`) no level takes its frames from the parents.
+            // come closer; if 4, each later level that brings them more than
+            // `AUTO_MIN_GAIN_DB` closer than the best so far. From level
+            // `L + 1` (kind `L - 1`) no level takes its frames from the
+            // parents.
             let first = compress_with(1)?;
             let last = (mesh.layout().level().saturating_sub(1)).min(container::MAX_FRAMES as u32);
             if last < 2 {
@@ -277,17 +306,7 @@ pub fn compress_probed(
                     .map_or(first.bytes.len(), |m| m.min(first.bytes.len()));
                 let budgets = AUTO_CUTS.map(|k| sent >> k);
                 let score = |c: &Compressed| cut_error(c, &normals, &budgets);
-                let mut best_score = score(&first)?;
-                let mut best = first;
-                for kind in 2..=last {
-                    let next = compress_with(kind as u8)?;
-                    let next_score = score(&next)?;
-                    if next_score >= best_score - auto_margin(kind) {
-                        break;
-                    }
-                    (best, best_score) = (next, next_score);
-                }
-                best
+                auto_search(first, last, |kind| compress_with(kind as u8), score)?
             }
         }
     };
@@ -908,6 +927,40 @@ mod tests {
         assert!(compress(&mesh, &EncodeOptions::DEFAULT.with_max_bytes(Some(10))).is_err());
     }
 
+    /// The search keeps a later start that is clearly closer than the best
+    /// so far even after one that was not (rocker-arm's scores: level 5
+    /// gains too little over 4, level 6 enough), never looks past level 4
+    /// when 3 wins, and takes no gain within the margin.
+    #[test]
+    fn auto_search_looks_past_a_small_step() {
+        let m = auto_margin(3);
+        let search = |scores: &[f64]| {
+            let mut asked = Vec::new();
+            let kept = auto_search(
+                1,
+                scores.len() as u32,
+                |kind| {
+                    asked.push(kind);
+                    Ok(kind)
+                },
+                |&kind| Ok(scores[kind as usize - 1]),
+            )
+            .unwrap();
+            (kept, asked)
+        };
+        // Rocker-arm: 4 beats 3, 5 is 0.066 closer than 4, 6 is 0.141
+        // closer, 7 is 0.006 closer than 6.
+        let (four, six) = (-0.171, -0.171 - 0.141);
+        let rocker = [0.0, four, four - 0.066, six, six - 0.006];
+        assert_eq!(search(&rocker), (4, vec![2, 3, 4, 5]));
+        // Level 3 wins: later starts are not even encoded.
+        assert_eq!(search(&[0.0, 0.01, -5.0]), (1, vec![2]));
+        // Level 4 wins by any amount; later levels only by more than `m`.
+        assert_eq!(search(&[0.0, -1e-9, -1e-9 - 0.99 * m]), (2, vec![2, 3]));
+        assert_eq!(search(&[0.0, -1e-9, -1e-9 - 1.01 * m]), (3, vec![2, 3]));
+        assert_eq!(search(&[0.0]), (1, vec![]));
+    }
+
     /// Each frame source is written into the header and decodes losslessly;
     /// the automatic choice is, byte for byte, the candidate the documented
     /// rule picks from the errors of their cuts along the normal (this
@@ -933,7 +986,8 @@ mod tests {
         let budgets = AUTO_CUTS.map(|k| from3.bytes.len() >> k);
         let error = |c: &Compressed| cut_error(c, &normals, &budgets).unwrap();
         // The documented rule: 3 or 4, whichever errs less; from 4, each
-        // later level while it errs more than `AUTO_MIN_GAIN_DB` less.
+        // later level that errs more than `AUTO_MIN_GAIN_DB` less than the
+        // best so far.
         let four_wins = error(&from4) < error(&from3);
         assert!(four_wins, "the test mesh no longer tries levels past 4");
         let (mut chosen, mut passed_over) = if four_wins {
@@ -944,10 +998,9 @@ mod tests {
         if four_wins {
             for level in 5..=mesh.layout().level() + 1 {
                 let next = with(Frames::ParentsFrom(level));
-                if error(&next) >= error(&chosen) - auto_margin(level - 2) {
-                    break;
+                if error(&next) < error(&chosen) - auto_margin(level - 2) {
+                    passed_over = std::mem::replace(&mut chosen, next);
                 }
-                passed_over = std::mem::replace(&mut chosen, next);
             }
         }
         assert_eq!(auto.bytes, chosen.bytes);
