@@ -203,8 +203,10 @@ pub struct Encoded {
 #[derive(Clone, Debug)]
 pub struct Decoded {
     /// The reconstructed coordinates that are not zero, one entry each
-    /// (every other coordinate is zero): a short cut has few, so they are
-    /// kept sparse; [`Decoded::coefs`] and [`Decoded::scatter`] spread them.
+    /// (every other coordinate is zero), level by level in the order they
+    /// became significant, not in node order: a short cut has few, so they
+    /// are kept sparse; [`Decoded::coefs`] and [`Decoded::scatter`] spread
+    /// them.
     pub nonzero: Vec<Nonzero>,
     /// The number of nodes.
     pub nodes: usize,
@@ -1089,8 +1091,9 @@ impl State {
     /// Centre of the uncertainty interval of every significant coordinate
     /// (the others are zero).
     fn reconstruct(&self) -> Vec<Nonzero> {
+        let mut nonzero = Vec::with_capacity(self.refine_lists.iter().map(Vec::len).sum());
         let significant = self.refine_lists.iter().flatten();
-        let nonzero = significant.map(|e| {
+        nonzero.extend(significant.map(|e| {
             let m = centre(e.mag, e.low) as i32;
             let negative = self.neg[e.node as usize] & (1 << e.coord) != 0;
             Nonzero {
@@ -1098,8 +1101,8 @@ impl State {
                 coord: e.coord,
                 value: if negative { -m } else { m },
             }
-        });
-        nonzero.collect()
+        }));
+        nonzero
     }
 
     /// Centre of every base value's low bits (zeros without base bits).

@@ -95,9 +95,9 @@ pub const AUTO_CUTS: [u32; 3] = [7, 5, 3];
 /// if it brings the cuts at [`AUTO_CUTS`] more than this much closer than
 /// the best start so far, in dB of their mean squared error on average
 /// over them (a level that falls short does not end the search: two small
-/// steps can make one that counts). Smaller gains come with larger lossless files (a later start
-/// codes the finest levels in frames from smaller quads, which costs
-/// their last passes).
+/// steps can make one that counts). Smaller gains come with larger
+/// lossless files (a later start codes the finest levels in frames from
+/// smaller quads, which costs their last passes).
 pub const AUTO_MIN_GAIN_DB: f64 = 0.15;
 
 /// How much lower than the best so far a candidate's `cut_error` must be
@@ -113,8 +113,8 @@ fn auto_margin(kind: u32) -> f64 {
     }
 }
 
-/// The search of [`Frames::Auto`] over frame kinds `1..=last` (`last` at
-/// least 2), given the stream of kind 1: `encode` makes the stream of a
+/// The search of [`Frames::Auto`] over frame kinds `1..=last`, given the
+/// stream of kind 1: `encode` makes the stream of a
 /// kind, `score` its `cut_error`. Kind 2 replaces kind 1 if it errs less,
 /// and only then are later kinds tried; each replaces the best so far if
 /// it errs less by more than `auto_margin`.

@@ -30,8 +30,8 @@
 //! gains up to 1.8 dB more on the smooth models but lets the bunny lose
 //! 0.9 dB; from level 2 lost 0.8 dB on fandisk. The encoder of `qm-io` tries
 //! 3 and 4 and keeps the better stream; if that is 4, it tries later
-//! levels too and keeps one only if it is clearly better. Once the coarser levels
-//! are exact, so is the frame.
+//! levels too and keeps one only if it is clearly better. Once the
+//! coarser levels are exact, so is the frame.
 //!
 //! **The rotation** maps the normal onto the first axis with two plane
 //! rotations (about `z`, then about `y`). Each is done as three integer
