@@ -116,12 +116,29 @@ pub const NEIGHBOUR_CONTEXTS: u32 = 0x20;
 /// The first version whose header carries holds.
 pub const HOLDS_VERSION: u8 = 4;
 
-/// The flags a header of `version` may set.
-fn known_flags(version: u8) -> u32 {
-    match version {
-        0..=2 => 0,
-        3 | 4 => BASE_BITS_MASK,
-        _ => BASE_BITS_MASK | NEIGHBOUR_CONTEXTS,
+/// What a header of a given version can carry: the one place that knows
+/// which version brought what.
+#[derive(Clone, Copy, Debug)]
+struct Features {
+    /// Base values' low bits in the stream, counted in the flags (3).
+    base_bits: bool,
+    /// A list of holds after the header fields ([`HOLDS_VERSION`]).
+    holds: bool,
+    /// The flags it may set.
+    flags: u32,
+}
+
+impl Features {
+    const fn of(version: u8) -> Features {
+        Features {
+            base_bits: version >= 3,
+            holds: version >= HOLDS_VERSION,
+            flags: match version {
+                0..=2 => 0,
+                3 | 4 => BASE_BITS_MASK,
+                _ => BASE_BITS_MASK | NEIGHBOUR_CONTEXTS,
+            },
+        }
     }
 }
 
@@ -144,12 +161,13 @@ impl Header {
             bits_per_level: self.weight_bits as u32,
             normal_bits: self.normal_bits as u32,
         };
-        let base_bits = if self.version >= 3 {
+        let features = Features::of(self.version);
+        let base_bits = if features.base_bits {
             self.flags & BASE_BITS_MASK
         } else {
             0
         };
-        let contexts = if self.flags & known_flags(self.version) & NEIGHBOUR_CONTEXTS != 0 {
+        let contexts = if self.flags & features.flags & NEIGHBOUR_CONTEXTS != 0 {
             qm_ezw::Contexts::Neighbours
         } else {
             qm_ezw::Contexts::Tree
@@ -246,13 +264,14 @@ fn config() -> bincode::config::Configuration {
 /// need version 4 or later, neighbour contexts version 5).
 pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u8>> {
     let low_bits = header.stream_params().base_bits;
-    if header.version < HOLDS_VERSION && !header.holds.is_empty() {
+    let features = Features::of(header.version);
+    if !features.holds && !header.holds.is_empty() {
         return Err(Error::Malformed {
             what: format!("holds in a version {} header", header.version),
         });
     }
     check_holds(&header.holds)?;
-    let unknown = header.flags & !known_flags(header.version);
+    let unknown = header.flags & !features.flags;
     if unknown != 0 {
         return Err(Error::Malformed {
             what: format!("flags {unknown:#x} in a version {} header", header.version),
@@ -270,7 +289,7 @@ pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u
         bincode::serde::encode_to_vec(header, config()).map_err(|e| Error::Malformed {
             what: e.to_string(),
         })?;
-    if header.version >= HOLDS_VERSION {
+    if features.holds {
         let mut end = 0;
         let relative: Vec<[u32; 2]> = (header.holds.iter())
             .map(|&[from, to]| {
@@ -388,11 +407,11 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
     }
     let header: Header = match version {
         1 => decode_exact::<HeaderV1>(header_raw, "header")?.into(),
-        2 | 3 => Header {
+        _ if !Features::of(version).holds => Header {
             version,
             ..decode_exact(header_raw, "header")?
         },
-        4 | 5 => {
+        _ => {
             let (header, relative): (Header, Vec<[u32; 2]>) = decode_exact(header_raw, "header")?;
             let mut end = 0u32;
             let mut holds = Vec::with_capacity(relative.len());
@@ -413,7 +432,6 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
                 ..header
             }
         }
-        _ => unreachable!("version {version} was checked above"),
     };
     let header_bytes = 7 + header_len + 4;
     check_header(&header, limits)?;
@@ -584,13 +602,13 @@ fn check_header(h: &Header, limits: &Limits) -> Result<()> {
             what: format!("{} passes of {} planes", h.passes, h.planes),
         });
     }
-    let known = known_flags(h.version);
-    if h.flags & !known != 0 {
+    let features = Features::of(h.version);
+    if h.flags & !features.flags != 0 {
         return Err(Error::Malformed {
-            what: format!("unknown header flags {:#x}", h.flags & !known),
+            what: format!("unknown header flags {:#x}", h.flags & !features.flags),
         });
     }
-    if h.version >= 3 {
+    if features.base_bits {
         let params = h.stream_params();
         let most = params
             .weighting
