@@ -4,8 +4,8 @@
 //! Each model is prepared (remeshed unless it has subdivision connectivity),
 //! once if A and B remesh alike and once per side if not (`remesh=`), and
 //! compressed losslessly with settings A and B; each stream is decoded at
-//! the same log-spaced byte budgets and measured against the input with the
-//! surface distance of `rd-curve`. The table gives, at the
+//! the same log-spaced byte budgets (25, or `--cuts N`) and measured
+//! against the input with the surface distance of `rd-curve`. The table gives, at the
 //! sizes where A reaches 60, 65, 70 and 78 dB, the PSNR B reaches with the
 //! same bytes (the gain) and the bytes B needs for the same PSNR (the ratio).
 
@@ -27,7 +27,10 @@ const TARGETS_DB: [f64; 4] = [60.0, 65.0, 70.0, 78.0];
 /// file, as in `rd-curve`).
 const BUDGETS: usize = 25;
 
-const USAGE: &str = "usage: cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--out FILE]\n  \
+/// The fewest cuts `--cuts` takes (the interpolation needs a few).
+const MIN_CUTS: usize = 5;
+
+const USAGE: &str = "usage: cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--cuts N] [--out FILE]\n  \
     SPEC: comma-separated frames=auto|off|LEVEL, normal=BITS, weight=BITS, update=none|paper|mean,\n  \
     remesh=normal|plain (with or without the remesher's normal placement),\n  \
     level=L (remesh level), spv=N (remesh samples per input vertex), base=front|stream,\n  \
@@ -108,6 +111,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
     let mut a = "frames=off,normal=0,contexts=tree".to_string();
     let mut b = String::new();
     let mut out = None;
+    let mut cuts = BUDGETS;
     let mut i = 0;
     while i < args.len() {
         let value = || args.get(i + 1).cloned().ok_or(USAGE.to_string());
@@ -123,6 +127,13 @@ pub fn run(args: &[String]) -> Result<(), String> {
             "--a" => a = value()?,
             "--b" => b = value()?,
             "--out" => out = Some(PathBuf::from(value()?)),
+            "--cuts" => {
+                cuts = value()?
+                    .parse()
+                    .ok()
+                    .filter(|&n| n >= MIN_CUTS)
+                    .ok_or(format!("--cuts: a number of at least {MIN_CUTS}\n{USAGE}"))?
+            }
             _ => return Err(USAGE.to_string()),
         }
         i += 2;
@@ -140,7 +151,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
         }
     }
     let ((oa, ra), (ob, rb)) = (options(&a)?, options(&b)?);
-    let bar = ProgressBar::new((files.len() * 2 * BUDGETS) as u64);
+    let bar = ProgressBar::new((files.len() * 2 * cuts) as u64);
     bar.set_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} {msg}")
             .map_err(|e| e.to_string())?
@@ -196,7 +207,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
         let grid = rd::budgets(
             streams.iter().map(first).min().unwrap_or(0),
             streams.iter().map(|c| c.bytes.len()).max().unwrap_or(0),
-            BUDGETS,
+            cuts,
         );
         for (label, c) in ["A", "B"].iter().zip(&streams) {
             let mut curve = Vec::new();

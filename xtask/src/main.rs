@@ -14,7 +14,7 @@
 //! - `remesh-bench [--level L] [--normal-remesh on|off] [MESH ...]`: remesh
 //!   time and peak memory per mesh, each in a process of its own (default:
 //!   the bunny and a generated 500k-vertex torus). See [`remesh_bench`].
-//! - `ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC]`: two encoder (and
+//! - `ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--cuts N]`: two encoder (and
 //!   remesher) settings compared at equal bytes on the same models. See
 //!   [`ab`].
 //! - `details [FILE|DIR ...]`: remesh PSNR, lossless size and the tangential
@@ -50,7 +50,7 @@ fn main() -> ExitCode {
         _ => Err("usage: cargo xtask pass-table [MESH ...]\n       \
                   cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]\n       \
                   cargo xtask remesh-bench [--level L] [--normal-remesh on|off] [MESH ...]\n       \
-                  cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--out FILE]\n       \
+                  cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--cuts N] [--out FILE]\n       \
                   cargo xtask details [FILE|DIR ...]\n       \
                   cargo xtask budget [--models FILE|DIR ...] [--db DB ...]"
             .to_string()),
