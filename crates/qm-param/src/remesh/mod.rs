@@ -336,10 +336,16 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     })
 }
 
+/// How many square sizes [`fit`] tries before it gives up.
+const FIT_TRIES: usize = 6;
+
 /// Gluing a small square can make two base edges share both ends without
 /// being mates, which the base mesh would take for one edge: grow the square
 /// until the glued layout is consistent (checked at level 1, where every base
-/// edge has a midpoint sample).
+/// edge has a midpoint sample). The sizes tried are `K + 0, 1, 2, 4, 8, 16`
+/// ([`FIT_TRIES`]): a cut that a few more base quads do not mend is not
+/// mended by many more (the problem is then its shape, not the square's
+/// size), and each try costs a parameterization.
 fn fit(
     disk: &cut::Disk,
     density: &[f64],
@@ -347,29 +353,37 @@ fn fit(
     options: &RemeshOptions,
 ) -> Result<square::SquareMap> {
     let first = map.k;
+    let mut tries = 1;
     loop {
         let probe = resample::resample(disk, &map, 1, 0);
-        let glued = BaseMesh::new(probe.base_vertices, probe.faces)
-            .ok()
-            .and_then(|base| Layout::new(base, 1).ok())
-            .is_some_and(|layout| {
-                SemiRegularMesh::from_face_grids(layout, &probe.grids, &probe.positions).is_ok()
-            });
-        if glued {
-            return Ok(map);
-        }
-        if map.k > 4 * first.max(8) {
-            return Err(Error::Remesh(
-                "could not glue the cut into a valid base mesh".into(),
-            ));
+        let problem = match BaseMesh::new(probe.base_vertices, probe.faces) {
+            Err(e) => e.to_string(),
+            Ok(base) => match Layout::new(base, 1).map(|layout| {
+                SemiRegularMesh::from_face_grids(layout, &probe.grids, &probe.positions)
+            }) {
+                Err(e) | Ok(Err(e)) => e.to_string(),
+                Ok(Ok(_)) => return Ok(map),
+            },
+        };
+        if tries == FIT_TRIES {
+            return Err(Error::Remesh(format!(
+                "could not glue the cut of a component ({} disk vertices, {} boundary \
+                 edges after cutting) into a valid base mesh with {first} to {} base \
+                 quads a side (last problem: {problem}); a mesh with many holes, \
+                 handles or split non-manifold edges may need repair first",
+                disk.positions.len(),
+                disk.boundary.len(),
+                map.k
+            )));
         }
         map = square::parameterize_k(
             disk,
             density,
-            map.k + 1,
+            first + (1 << (tries - 1)),
             options.stretch_iterations,
             Some(&map.divisor),
         )?;
+        tries += 1;
     }
 }
 
