@@ -4,8 +4,8 @@
 //! Each model is prepared (remeshed unless it has subdivision connectivity),
 //! once if A and B remesh alike and once per side if not (`remesh=`), and
 //! compressed losslessly with settings A and B; each stream is decoded at
-//! the same log-spaced byte budgets (25, or `--cuts N`) and measured
-//! against the input with the surface distance of `rd-curve`. The table gives, at the
+//! the same log-spaced byte budgets (25, or `--cuts N`) and measured against
+//! the input with the surface distance of `rd-curve`. The table gives, at the
 //! sizes where A reaches 60, 65, 70 and 78 dB, the PSNR B reaches with the
 //! same bytes (the gain) and the bytes B needs for the same PSNR (the ratio).
 
@@ -24,11 +24,12 @@ use crate::rd::{self, AtPsnr, bytes_at};
 const TARGETS_DB: [f64; 4] = [60.0, 65.0, 70.0, 78.0];
 
 /// Byte budgets per stream (log-spaced from the base mesh to the whole
-/// file, as in `rd-curve`).
+/// file, as in `rd-curve`), unless `--cuts` says otherwise.
 const BUDGETS: usize = 25;
 
-/// The fewest cuts `--cuts` takes (the interpolation needs a few).
-const MIN_CUTS: usize = 5;
+/// The cuts `--cuts` takes (the interpolation needs a few; each costs a
+/// decode and a surface distance).
+const CUTS: std::ops::RangeInclusive<usize> = 5..=1000;
 
 const USAGE: &str = "usage: cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--cuts N] [--out FILE]\n  \
     SPEC: comma-separated frames=auto|off|LEVEL, normal=BITS, weight=BITS, update=none|paper|mean,\n  \
@@ -131,8 +132,12 @@ pub fn run(args: &[String]) -> Result<(), String> {
                 cuts = value()?
                     .parse()
                     .ok()
-                    .filter(|&n| n >= MIN_CUTS)
-                    .ok_or(format!("--cuts: a number of at least {MIN_CUTS}\n{USAGE}"))?
+                    .filter(|n| CUTS.contains(n))
+                    .ok_or(format!(
+                        "--cuts: a number from {} to {}\n{USAGE}",
+                        CUTS.start(),
+                        CUTS.end()
+                    ))?
             }
             _ => return Err(USAGE.to_string()),
         }

@@ -14,9 +14,9 @@
 //! - `remesh-bench [--level L] [--normal-remesh on|off] [MESH ...]`: remesh
 //!   time and peak memory per mesh, each in a process of its own (default:
 //!   the bunny and a generated 500k-vertex torus). See [`remesh_bench`].
-//! - `ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--cuts N]`: two encoder (and
-//!   remesher) settings compared at equal bytes on the same models. See
-//!   [`ab`].
+//! - `ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--cuts N]
+//!   [--out FILE]`: two encoder (and remesher) settings compared at equal
+//!   bytes on the same models. See [`ab`].
 //! - `details [FILE|DIR ...]`: remesh PSNR, lossless size and the tangential
 //!   share of the codec's details, with and without the remesher's normal
 //!   placement. See [`details`].

@@ -336,16 +336,21 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     })
 }
 
-/// How many square sizes [`fit`] tries before it gives up.
-const FIT_TRIES: usize = 6;
+/// Square sizes [`fit`] grows by one base quad at a time before it doubles
+/// the growth, three times at most.
+const FIT_STEPS: usize = 8;
 
 /// Gluing a small square can make two base edges share both ends without
 /// being mates, which the base mesh would take for one edge: grow the square
 /// until the glued layout is consistent (checked at level 1, where every base
-/// edge has a midpoint sample). The sizes tried are `K + 0, 1, 2, 4, 8, 16`
-/// ([`FIT_TRIES`]): a cut that a few more base quads do not mend is not
-/// mended by many more (the problem is then its shape, not the square's
-/// size), and each try costs a parameterization.
+/// edge has a midpoint sample). From a first size `K` the sizes asked for
+/// are `K, K + 1, ..., K + 8` ([`FIT_STEPS`]), then `K + 16` and `K + 32`
+/// (each at least one more than the last size laid out), none above
+/// `4 max(K, 8)`; before, it was every size up to that. A cut that a few
+/// more base quads do not mend is seldom mended by many more (its shape is
+/// then the problem, not the square's size), and each size costs a
+/// parameterization: growing one at a time all the way ran for hours on
+/// scans whose cuts have hundreds of segments.
 fn fit(
     disk: &cut::Disk,
     density: &[f64],
@@ -353,7 +358,7 @@ fn fit(
     options: &RemeshOptions,
 ) -> Result<square::SquareMap> {
     let first = map.k;
-    let mut tries = 1;
+    let mut tried = Vec::new();
     loop {
         let probe = resample::resample(disk, &map, 1, 0);
         let problem = match BaseMesh::new(probe.base_vertices, probe.faces) {
@@ -365,25 +370,31 @@ fn fit(
                 Ok(Ok(_)) => return Ok(map),
             },
         };
-        if tries == FIT_TRIES {
+        tried.push(map.k);
+        let next = if tried.len() < FIT_STEPS {
+            map.k + 1
+        } else {
+            (first + (1 << (tried.len() - FIT_STEPS + 3))).max(map.k + 1)
+        };
+        if next > 4 * first.max(8) || tried.len() > FIT_STEPS + 2 {
+            let sizes: Vec<String> = tried.iter().map(usize::to_string).collect();
             return Err(Error::Remesh(format!(
                 "could not glue the cut of a component ({} disk vertices, {} boundary \
-                 edges after cutting) into a valid base mesh with {first} to {} base \
-                 quads a side (last problem: {problem}); a mesh with many holes, \
-                 handles or split non-manifold edges may need repair first",
+                 edges after cutting) into a valid base mesh with {} base quads a \
+                 side (last problem: {problem}); a mesh with many holes, handles or \
+                 split non-manifold edges may need repair first",
                 disk.positions.len(),
                 disk.boundary.len(),
-                map.k
+                sizes.join(", ")
             )));
         }
         map = square::parameterize_k(
             disk,
             density,
-            first + (1 << (tries - 1)),
+            next,
             options.stretch_iterations,
             Some(&map.divisor),
         )?;
-        tries += 1;
     }
 }
 
