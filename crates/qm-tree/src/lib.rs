@@ -119,8 +119,10 @@ impl ZeroTree {
             levels: vec![0; count],
             kinds: Vec::with_capacity(count),
             parents: vec![NO_PARENT; count],
-            first_child: vec![0; count],
-            child_counts: vec![0; count],
+            // Only nodes above the finest level have children: these two
+            // arrays stop there (breadth-first, the finest level comes last).
+            first_child: Vec::new(),
+            child_counts: Vec::new(),
             level_starts: vec![0],
             max_level: big_l,
             base: base.clone(),
@@ -159,12 +161,12 @@ impl ZeroTree {
             }
             let kind = tree.kinds[next];
             let first = tree.samples.len();
-            tree.first_child[next] = first as u32;
+            tree.first_child.push(first as u32);
             let (f, xy) = at[next];
             let (x, y) = ((xy & 0xffff) as usize, (xy >> 16) as usize);
             let h = 1 << (big_l - level as u32);
             let count = Self::children_of(layout, kind, f, x, y, h, &mut kids);
-            tree.child_counts[next] = count as u8;
+            tree.child_counts.push(count as u8);
             tree.parents[first..first + count].fill(next as u32);
             tree.levels[first..first + count].fill(level + 1);
             for &(g, x, y) in &kids[..count] {
@@ -178,9 +180,6 @@ impl ZeroTree {
             }
             next += 1;
         }
-        // Finest-level nodes: no children, first child would be the end.
-        let end = tree.samples.len() as u32;
-        tree.first_child[next..].fill(end);
         // Levels never decrease along the breadth-first order.
         let mut end = 0;
         for &e in &level_end[1..] {
@@ -415,8 +414,11 @@ impl ZeroTree {
     /// Children of node `k`: a contiguous node range.
     #[inline]
     pub fn children(&self, k: usize) -> std::ops::Range<usize> {
-        let first = self.first_child[k] as usize;
-        first..first + self.child_counts[k] as usize
+        match self.first_child.get(k) {
+            Some(&first) => first as usize..first as usize + self.child_counts[k] as usize,
+            // The finest level.
+            None => self.samples.len()..self.samples.len(),
+        }
     }
 
     /// Gathers per-sample values into node order.
