@@ -336,15 +336,15 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     })
 }
 
-/// Square sizes [`fit`] grows by one base quad at a time before it doubles
-/// the growth, three times at most.
-const FIT_STEPS: usize = 8;
+/// How far [`fit`] grows the square past its first size, try by try: one
+/// base quad at a time up to 8, then 16 and 32.
+const FIT_GROWTH: [usize; 11] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 16, 32];
 
 /// Gluing a small square can make two base edges share both ends without
 /// being mates, which the base mesh would take for one edge: grow the square
 /// until the glued layout is consistent (checked at level 1, where every base
 /// edge has a midpoint sample). From a first size `K` the sizes asked for
-/// are `K, K + 1, ..., K + 8` ([`FIT_STEPS`]), then `K + 16` and `K + 32`
+/// are `K, K + 1, ..., K + 8`, then `K + 16` and `K + 32` ([`FIT_GROWTH`])
 /// (each at least one more than the last size laid out), none above
 /// `4 max(K, 8)`; before, it was every size up to that. A cut that a few
 /// more base quads do not mend is seldom mended by many more (its shape is
@@ -371,12 +371,10 @@ fn fit(
             },
         };
         tried.push(map.k);
-        let next = if tried.len() < FIT_STEPS {
-            map.k + 1
-        } else {
-            (first + (1 << (tried.len() - FIT_STEPS + 3))).max(map.k + 1)
-        };
-        if next > 4 * first.max(8) || tried.len() > FIT_STEPS + 2 {
+        let next = (FIT_GROWTH.get(tried.len()))
+            .map(|grow| (first + grow).max(map.k + 1))
+            .filter(|&k| k <= 4 * first.max(8));
+        let Some(next) = next else {
             let sizes: Vec<String> = tried.iter().map(usize::to_string).collect();
             return Err(Error::Remesh(format!(
                 "could not glue the cut of a component ({} disk vertices, {} boundary \
@@ -387,7 +385,7 @@ fn fit(
                 disk.boundary.len(),
                 sizes.join(", ")
             )));
-        }
+        };
         map = square::parameterize_k(
             disk,
             density,
