@@ -1,0 +1,30 @@
+# Sourced by .ci/run and .ci/web: makes sure /dev/null is the null device.
+#
+# Cargo's probe of rustc (`rustc - --print=...`, run at the start of a cargo
+# command) takes /dev/null as its standard input and reads it as Rust
+# source. Where a sandbox gives a plain file for /dev/null, that file keeps
+# what is thrown away there (the cc crate's `cc -?` during a build, for
+# one), and the next cargo command fails in that probe. The device is put
+# back where that is allowed; otherwise `cargo` on the PATH becomes a shim
+# that empties the file before each command.
+
+null_is_device() {
+  [ -c /dev/null ] && [ "$(stat -c %t:%T /dev/null)" = 1:3 ]
+}
+
+if [ -z "${QM_CI_NULL_CHECKED:-}" ] && ! null_is_device; then
+  echo "ci: /dev/null is a $(stat -c %F /dev/null 2>&1), not the null device" >&2
+  spare="/dev/.qm-ci-null.$$"
+  if mknod -m 666 "$spare" c 1 3 && : >"$spare" && [ -z "$(head -c 1 "$spare")" ] &&
+    mv -f "$spare" /dev/null && null_is_device; then
+    echo "ci: /dev/null is the null device again" >&2
+  else
+    rm -f "$spare"
+    shim="$(mktemp -d)"
+    printf '#!/bin/sh\n: >/dev/null\nexec "%s" "$@"\n' "$(command -v cargo)" >"$shim/cargo"
+    chmod +x "$shim/cargo"
+    export PATH="$shim:$PATH"
+    echo "ci: could not replace it; cargo empties it before each command" >&2
+  fi
+fi
+export QM_CI_NULL_CHECKED=1
