@@ -9,25 +9,53 @@
 //! 2. vertices with bit-identical positions are merged (texture-seam
 //!    duplicates);
 //! 3. degenerate triangles (a repeated vertex, or an exactly zero cross
-//!    product) and duplicate triangles (the same vertex set in any order or
-//!    orientation; the first is kept) are dropped;
-//! 4. faces are oriented greedily, breadth first: a face joins its neighbour
-//!    across an edge only if exactly two faces use the edge and their
+//!    product) are dropped. Triangles on the same vertex set cancel in
+//!    pairs that run opposite ways, as in a sum of oriented faces: of those
+//!    on one set, one opposite pair stands for the cancelled ones, one
+//!    triangle of the orientation left over (if any) is kept, and the rest
+//!    are dropped as duplicates. The pairs then cancel (both faces go) in
+//!    every patch of such pairs that meets two or more other faces at some
+//!    edge: a thin part that a reconstruction collapsed to zero thickness,
+//!    or the wall where two parts touch face to face, whose rim would
+//!    otherwise have four faces to an edge all around it. A patch that
+//!    meets at most one other face at each edge (a free two-sided sheet, or
+//!    a face stored again, reversed, on a surface) keeps one face per
+//!    vertex set;
+//! 4. the faces around an edge with more than two are paired into sheets
+//!    where they can be (see `pair_sheets`): sorted by angle about the
+//!    edge, a face pairs with its neighbour when the two run the edge in
+//!    opposite directions and the wedge between them is inside the solid
+//!    (parts that touch along the edge come apart), or, the other way,
+//!    outside it (they join there). Both are tried where any edge has more
+//!    than two faces, and the simpler result is kept: fewer handles, holes and
+//!    components, which is what the remesher must cut through. Pinched
+//!    edges of a reconstructed scan then become manifold sheets instead of
+//!    faces cut loose, which left slits. Faces left over are cut loose, as
+//!    are all of an edge's faces where none pair;
+//! 5. faces are oriented greedily, breadth first: a face joins its neighbour
+//!    across an edge (or a sheet) only if exactly two faces use it and their
 //!    orientations can agree (flipping the newly reached face if needed).
-//!    Every other shared edge (more than two faces, or an orientation
-//!    conflict as on a Möbius strip) is cut;
-//! 5. every vertex gets one copy per fan of faces joined around it, which
+//!    Every other shared edge (an orientation conflict as on a Möbius
+//!    strip) is cut;
+//! 6. every vertex gets one copy per fan of faces joined around it, which
 //!    both separates the sides of cut edges and splits non-manifold
-//!    (bow-tie) vertices. Where a cut edge's faces would still share both
+//!    (bow-tie) vertices. Where two sheets of an edge would still share both
+//!    copies (the fans around its ends join them elsewhere, as when the
+//!    pairing joins two parts that touch only along the edge), the edge's
+//!    pairing is undone; where a cut edge's faces would still share both
 //!    copies (a cut across a closed fan), one face is detached at that
-//!    vertex by cutting its other edge there;
-//! 6. components (faces connected through joined edges) are separated and
+//!    vertex by cutting its other edge there. Each round regroups, until
+//!    nothing is shared (two rounds at most on every input tried);
+//! 7. components (faces connected through joined edges) are separated and
 //!    renumbered compactly, in input order; unused vertices disappear;
-//! 7. each component keeps the orientation most of its input faces had,
+//! 8. each component keeps the orientation most of its input faces had,
 //!    except that a closed component is oriented to positive signed volume
 //!    `sum of a . (b x c) / 6` (outward normals).
 //!
-//! Holes stay holes. Everything is sorting and union-find, `O(n log n)`.
+//! Holes stay holes. The only faces removed that are not degenerate or
+//! duplicates are cancelled pairs (step 3), which leave an opening only
+//! where such a patch also meets a single face at some edge. Everything is
+//! sorting and union-find, `O(n log n)` per round of step 6.
 //!
 //! [`topology`] counts a triangle mesh's vertices, edges, faces, boundary
 //! loops and genus (`V - E + F = 2 - 2g - b`) and checks it is manifold.
@@ -66,11 +94,19 @@ pub struct CleanReport {
     /// Faces with fewer than three corners, and triangles with a repeated
     /// vertex or zero area.
     pub dropped_degenerate: usize,
-    /// Triangles with the same vertex set as an earlier one.
+    /// Triangles dropped for sharing their vertex set with a triangle that
+    /// is kept (step 3); those in [`Self::cancelled_faces`] are not counted.
     pub dropped_duplicate: usize,
+    /// Faces of opposite pairs (the same vertex set, run the other way)
+    /// dropped both, in sheets that meet other faces.
+    pub cancelled_faces: usize,
     /// Edges shared by faces that were not joined across them: more than
-    /// two faces, an orientation conflict, or a cut to separate a fan.
+    /// two faces left unpaired, an orientation conflict, or a cut to
+    /// separate a fan.
     pub split_edges: usize,
+    /// Edges with more than two faces whose faces were paired into
+    /// manifold sheets (step 4).
+    pub paired_edges: usize,
     /// Vertices given more than one copy (split edges' ends and bow ties).
     pub split_vertices: usize,
     /// Vertex copies added by splitting.
@@ -92,8 +128,8 @@ impl fmt::Display for CleanReport {
         write!(
             f,
             "clean-up: {} -> {} vertices ({} duplicates merged, {} unused dropped, {} added by splits), \
-             {} faces -> {} triangles ({} degenerate and {} duplicate dropped), \
-             {} non-manifold edges and {} vertices split, {} faces flipped, {} component{}",
+             {} faces -> {} triangles ({} degenerate and {} duplicate dropped, {} cancelled in opposite pairs), \
+             {} non-manifold edges paired, {} edges and {} vertices split, {} faces flipped, {} component{}",
             Thousands(self.input_vertices),
             Thousands(self.output_vertices),
             Thousands(self.merged_vertices),
@@ -103,6 +139,8 @@ impl fmt::Display for CleanReport {
             Thousands(self.output_faces),
             Thousands(self.dropped_degenerate),
             Thousands(self.dropped_duplicate),
+            Thousands(self.cancelled_faces),
+            Thousands(self.paired_edges),
             Thousands(self.split_edges),
             Thousands(self.split_vertices),
             Thousands(self.flipped_faces),
@@ -149,38 +187,86 @@ pub fn clean(mesh: &PolyMesh) -> Result<Cleaned> {
     report.merged_vertices = mesh.positions.len() - positions.len();
     let tris = drop_bad_triangles(tris, &remap, &positions, &mut report);
 
-    let edges = EdgeTable::new(&tris);
-    let (flip, mut state) = orient(&tris, &edges, &mut report);
-
-    // Step 5: one vertex copy per fan; detach faces where cut edges still
-    // share both copies, then regroup (splitting only ever separates more).
-    let mut roots = corner_groups(&tris, &edges, &state);
-    let detach = shared_cut_corners(&edges, &state, &roots);
-    for &c in &detach {
-        let prev = c - c % 3 + (c % 3 + 2) % 3;
-        let e = edges.edge_of[prev] as usize;
-        if state[e] == EdgeState::Joined {
-            state[e] = EdgeState::Cut;
-            report.split_edges += 1;
-        }
+    // Step 4 both ways (parts kept apart, parts joined) where any edge has
+    // more than two faces: the simpler surface wins.
+    let outward = signed_volume(&tris, &positions) >= 0.0;
+    let (first, crowded) = resolve(&tris, &positions, report, outward)?;
+    if !crowded {
+        return Ok(first);
     }
-    if !detach.is_empty() {
-        roots = corner_groups(&tris, &edges, &state);
-        if !shared_cut_corners(&edges, &state, &roots).is_empty() {
-            return Err(Error::Internal("clean-up left a cut edge shared"));
-        }
-    }
+    let (second, _) = resolve(&tris, &positions, report, !outward)?;
+    Ok(if complexity(&second) < complexity(&first) {
+        second
+    } else {
+        first
+    })
+}
 
-    let components = assemble(
-        &tris,
-        &positions,
-        &edges,
-        &state,
-        &flip,
-        &roots,
-        &mut report,
-    );
-    Ok(Cleaned { components, report })
+/// How hard a cleaned surface is to remesh: twice the genus plus the holes,
+/// summed, plus the components (each handle takes two loops of cut, each
+/// hole a path to it, each component a chart).
+fn complexity(cleaned: &Cleaned) -> i64 {
+    let topo = components_topology(&cleaned.components);
+    topo.iter()
+        .map(|t| 2 * t.genus + t.boundary_loops as i64 + 1)
+        .sum()
+}
+
+/// Steps 4 to 8 on the clean-up's triangles, pairing as if the normals
+/// pointed `outward` (see `pair_sheets`). Also says whether any edge has
+/// more than two faces (so that pairing the other way may differ).
+fn resolve(
+    tris: &[[u32; 3]],
+    positions: &[DVec3],
+    mut report: CleanReport,
+    outward: bool,
+) -> Result<(Cleaned, bool)> {
+    let edges = EdgeTable::new(tris, positions, outward);
+    let (flip, mut state) = orient(tris, &edges);
+
+    // Step 6: one vertex copy per fan. Where faces of an edge still share
+    // both copies without being joined there, undo the edge's pairing, or
+    // else detach a face; regroup after each round (splitting only ever
+    // separates more, so this ends).
+    let mut roots = corner_groups(tris, &edges, &state);
+    loop {
+        let shared = shared_ends(&edges, &state, &roots);
+        if shared.is_empty() {
+            break;
+        }
+        let mut changed = false;
+        let mut undone = None;
+        for (k, c) in shared {
+            // The next round looks at an edge again once its pairing is undone.
+            if undone == Some(k) {
+                continue;
+            }
+            let sheets = edges.sheets(k);
+            if sheets.len() > 1 && sheets.clone().any(|e| state[e] == EdgeState::Joined) {
+                for e in sheets {
+                    if state[e] == EdgeState::Joined {
+                        state[e] = EdgeState::Cut;
+                        changed = true;
+                    }
+                }
+                undone = Some(k);
+                continue;
+            }
+            let e = edges.edge_of[prev_corner(c)] as usize;
+            if state[e] == EdgeState::Joined {
+                state[e] = EdgeState::Cut;
+                changed = true;
+            }
+        }
+        if !changed {
+            return Err(Error::Internal("clean-up left an edge shared"));
+        }
+        roots = corner_groups(tris, &edges, &state);
+    }
+    count_edges(&edges, &state, &mut report);
+
+    let components = assemble(tris, positions, &edges, &state, &flip, &roots, &mut report);
+    Ok((Cleaned { components, report }, edges.crowded))
 }
 
 /// Step 1: fan triangulation, checking indices and used positions.
@@ -239,7 +325,8 @@ fn merge_identical(positions: &[DVec3]) -> (Vec<u32>, Vec<DVec3>) {
     (remap, unique)
 }
 
-/// Step 3: renumbers and drops degenerate and duplicate triangles.
+/// Step 3: renumbers and drops degenerate and duplicate triangles, and
+/// cancels attached zero-thickness sheets (see the module documentation).
 fn drop_bad_triangles(
     tris: Vec<[u32; 3]>,
     remap: &[u32],
@@ -266,13 +353,40 @@ fn drop_bad_triangles(
         })
         .collect();
     keyed.sort_unstable();
-    let mut keep = vec![true; kept.len()];
-    for w in keyed.windows(2) {
-        if w[0].0 == w[1].0 {
-            keep[w[1].1 as usize] = false;
-            report.dropped_duplicate += 1;
+    // Whether a triangle's corners are a rotation of their sorted order.
+    let even = |t: &[u32; 3]| (t[0] < t[1]) as u8 + (t[1] < t[2]) as u8 + (t[2] < t[0]) as u8 == 2;
+    let mut keep = vec![false; kept.len()];
+    // Per vertex set, triangles cancel in opposite pairs: the first pair
+    // stands for them (both kept for now), and of the orientation left over
+    // one triangle is kept; the rest are duplicates.
+    let mut twins: Vec<Twins> = Vec::new();
+    for run in keyed.chunk_by(|x, y| x.0 == y.0) {
+        if let [(_, f)] = run {
+            keep[*f as usize] = true;
+            continue;
         }
+        // The run's triangles of one orientation, in order.
+        let kept = &kept;
+        let of = |ab: bool| {
+            run.iter()
+                .map(|x| x.1)
+                .filter(move |&f| even(&kept[f as usize]) == ab)
+        };
+        let (n_ab, n_ba) = (of(true).count(), of(false).count());
+        let pairs = n_ab.min(n_ba);
+        let left =
+            (n_ab != n_ba).then(|| of(n_ab > n_ba).nth(pairs).expect("a triangle left over"));
+        if let (Some(f), Some(g)) = (of(true).next(), of(false).next()) {
+            twins.push(Twins { pair: [f, g], left });
+            keep[f as usize] = true;
+            keep[g as usize] = true;
+        }
+        if let Some(l) = left {
+            keep[l as usize] = true;
+        }
+        report.dropped_duplicate += run.len() - 2 * pairs.min(1) - usize::from(left.is_some());
     }
+    cancel_sheets(&kept, &twins, &mut keep, report);
     let mut i = 0;
     kept.retain(|_| {
         i += 1;
@@ -281,43 +395,152 @@ fn drop_bad_triangles(
     kept
 }
 
+/// The triangles of one vertex set that run both ways: the first of each
+/// orientation, and the one left over when the orientations do not balance.
+struct Twins {
+    pair: [u32; 2],
+    left: Option<u32>,
+}
+
+/// Cancels the opposite pairs (`twins`) of every patch of such pairs (pairs
+/// sharing edges) that meets two or more other faces at some edge: a thin
+/// part collapsed to zero thickness, or the wall where two parts touch face
+/// to face, whose rim would otherwise have four faces to an edge. A patch
+/// that meets at most one other face at each edge (a free two-sided sheet,
+/// or a face stored again, reversed, on a surface) keeps one face per
+/// vertex set instead: the one left over if any, else one of the pair.
+fn cancel_sheets(tris: &[[u32; 3]], twins: &[Twins], keep: &mut [bool], report: &mut CleanReport) {
+    if twins.is_empty() {
+        return;
+    }
+    const NONE: u32 = u32::MAX;
+    let mut pair_of = vec![NONE; tris.len()];
+    for (p, t) in twins.iter().enumerate() {
+        for f in t.pair.into_iter().chain(t.left) {
+            pair_of[f as usize] = p as u32;
+        }
+    }
+    let mut edges: Vec<(u64, u32)> = Vec::with_capacity(3 * tris.len());
+    for (f, t) in tris.iter().enumerate() {
+        if keep[f] {
+            for i in 0..3 {
+                edges.push((edge_key(t[i], t[(i + 1) % 3]), pair_of[f]));
+            }
+        }
+    }
+    edges.sort_unstable();
+    let mut parent: Vec<u32> = (0..twins.len() as u32).collect();
+    // Per pair: meets more than one other face at some edge.
+    let mut many = vec![false; twins.len()];
+    for run in edges.chunk_by(|x, y| x.0 == y.0) {
+        // Sorted by pair, the faces of no pair last.
+        let p = run[0].1;
+        if p == NONE {
+            continue;
+        }
+        for &(_, q) in run.iter().take_while(|x| x.1 != NONE) {
+            union(&mut parent, p, q);
+        }
+        many[p as usize] |= run.iter().filter(|x| x.1 == NONE).count() > 1;
+    }
+    for p in 0..twins.len() {
+        let root = find(&mut parent, p as u32) as usize;
+        many[root] |= many[p];
+    }
+    for (p, t) in twins.iter().enumerate() {
+        let root = find(&mut parent, p as u32) as usize;
+        let [f, g] = t.pair;
+        keep[g as usize] = false;
+        if many[root] {
+            keep[f as usize] = false;
+            report.cancelled_faces += 2;
+        } else if t.left.is_some() {
+            keep[f as usize] = false;
+            report.dropped_duplicate += 2;
+        } else {
+            report.dropped_duplicate += 1;
+        }
+    }
+}
+
+/// The key of the undirected edge `a`-`b`.
+fn edge_key(a: u32, b: u32) -> u64 {
+    (u64::from(a.min(b)) << 32) | u64::from(a.max(b))
+}
+
 /// Undirected edges and the corners using them. Corner `c = 3 t + i` of
 /// triangle `t` starts the directed edge `t[i] -> t[(i + 1) % 3]`.
+///
+/// An edge with more than two faces is split into *sheets* (step 4): a pair
+/// of faces that may join across it, or one face left alone. The rest of
+/// the clean-up joins and cuts sheets as it does edges; an edge of at most
+/// two faces is one sheet.
 struct EdgeTable {
-    /// Edge of each corner.
+    /// Sheet of each corner.
     edge_of: Vec<u32>,
-    /// Corners sorted by edge; edge `e` has `corners[start[e]..start[e + 1]]`.
+    /// Corners sorted by edge, then sheet; sheet `e` has
+    /// `corners[start[e]..start[e + 1]]`.
     corners: Vec<u32>,
     start: Vec<usize>,
+    /// Undirected edge `k` has sheets `first[k]..first[k + 1]`.
+    first: Vec<usize>,
+    /// Some edge has more than two faces.
+    crowded: bool,
 }
 
 impl EdgeTable {
-    fn new(tris: &[[u32; 3]]) -> Self {
+    fn new(tris: &[[u32; 3]], positions: &[DVec3], outward: bool) -> Self {
         let mut keyed: Vec<(u64, u32)> = Vec::with_capacity(3 * tris.len());
         for (t, tri) in tris.iter().enumerate() {
             for i in 0..3 {
-                let (a, b) = (tri[i], tri[(i + 1) % 3]);
-                let key = (u64::from(a.min(b)) << 32) | u64::from(a.max(b));
-                keyed.push((key, (3 * t + i) as u32));
+                keyed.push((edge_key(tri[i], tri[(i + 1) % 3]), (3 * t + i) as u32));
             }
         }
         keyed.sort_unstable();
-        let mut edge_of = vec![0u32; keyed.len()];
-        let mut start = Vec::new();
-        for (k, &(key, c)) in keyed.iter().enumerate() {
-            if k == 0 || keyed[k - 1].0 != key {
-                start.push(k);
+        let mut corners: Vec<u32> = keyed.iter().map(|&(_, c)| c).collect();
+        let mut edge_of = vec![0u32; corners.len()];
+        let mut start = Vec::with_capacity(keyed.len() / 2 + 1);
+        let mut first = Vec::with_capacity(keyed.len() / 2 + 1);
+        let mut crowded = false;
+        let mut k = 0;
+        while k < keyed.len() {
+            let mut end = k + 1;
+            while end < keyed.len() && keyed[end].0 == keyed[k].0 {
+                end += 1;
             }
-            edge_of[c as usize] = (start.len() - 1) as u32;
+            first.push(start.len());
+            crowded |= end - k > 2;
+            let sizes = pair_sheets(&mut corners[k..end], tris, positions, outward);
+            let mut sheet = |at: usize, size: usize| {
+                for &c in &corners[at..at + size] {
+                    edge_of[c as usize] = start.len() as u32;
+                }
+                start.push(at);
+            };
+            match sizes {
+                None => sheet(k, end - k),
+                Some(sizes) => {
+                    let mut at = k;
+                    for size in sizes {
+                        sheet(at, size);
+                        at += size;
+                    }
+                }
+            }
+            k = end;
         }
+        first.push(start.len());
         start.push(keyed.len());
         EdgeTable {
             edge_of,
-            corners: keyed.into_iter().map(|(_, c)| c).collect(),
+            corners,
             start,
+            first,
+            crowded,
         }
     }
 
+    /// Sheets.
     fn count(&self) -> usize {
         self.start.len() - 1
     }
@@ -325,11 +548,115 @@ impl EdgeTable {
     fn corners(&self, e: usize) -> &[u32] {
         &self.corners[self.start[e]..self.start[e + 1]]
     }
+
+    /// Undirected edges.
+    fn undirected(&self) -> usize {
+        self.first.len() - 1
+    }
+
+    fn sheets(&self, k: usize) -> std::ops::Range<usize> {
+        self.first[k]..self.first[k + 1]
+    }
+
+    /// Corners of undirected edge `k`, all its sheets.
+    fn edge_corners(&self, k: usize) -> &[u32] {
+        &self.corners[self.start[self.first[k]]..self.start[self.first[k + 1]]]
+    }
+}
+
+/// `sum of a . (b x c) / 6` over the triangles, about their vertices' mean
+/// (six times the enclosed volume for a closed surface, for precision).
+fn signed_volume(tris: &[[u32; 3]], positions: &[DVec3]) -> f64 {
+    let o = positions.iter().sum::<DVec3>() / positions.len().max(1) as f64;
+    tris.iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| positions[v as usize] - o);
+            a.dot(b.cross(c))
+        })
+        .sum()
+}
+
+/// Step 4: reorders the corners of one edge (`run`, all on the same two
+/// vertices `a < b`) into sheets and returns the sheets' sizes, or `None`
+/// to keep the edge as it is (one sheet: two faces or fewer, or none to
+/// pair).
+///
+/// The faces are sorted by the angle of their third vertex about the axis
+/// `a -> b`. A face that runs the edge `b -> a` pairs with the next face
+/// counterclockwise if that one runs `a -> b`: with outward normals both
+/// then face away from the wedge between them, which is inside the solid.
+/// Two solids that touch along the edge (or a solid that touches itself)
+/// thus come apart rather than fuse, which would add a handle. `outward`
+/// (the input's signed volume is not negative) false swaps the directions.
+/// Each face pairs at most once; faces left over are sheets of their own.
+fn pair_sheets(
+    run: &mut [u32],
+    tris: &[[u32; 3]],
+    positions: &[DVec3],
+    outward: bool,
+) -> Option<Vec<usize>> {
+    if run.len() <= 2 {
+        return None;
+    }
+    let start = |c: u32| tris[c as usize / 3][c as usize % 3];
+    let third = |c: u32| tris[c as usize / 3][(c as usize % 3 + 2) % 3];
+    let ends = |c: u32| {
+        let (u, w) = (start(c), tris[c as usize / 3][(c as usize % 3 + 1) % 3]);
+        (u.min(w), u.max(w))
+    };
+    let (a, b) = ends(run[0]);
+    let pa = positions[a as usize];
+    let axis = (positions[b as usize] - pa).normalize_or_zero();
+    let across = |c: u32| {
+        let d = positions[third(c) as usize] - pa;
+        d - axis * axis.dot(d)
+    };
+    let x = across(run[0]).normalize_or_zero();
+    let y = axis.cross(x);
+    if axis == DVec3::ZERO || x == DVec3::ZERO {
+        return None;
+    }
+    // (angle, corner, runs a -> b)
+    let mut around: Vec<(f64, u32, bool)> = run
+        .iter()
+        .map(|&c| {
+            let d = across(c);
+            (d.dot(y).atan2(d.dot(x)), c, start(c) == a)
+        })
+        .collect();
+    around.sort_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)));
+    let n = around.len();
+    // No face can be in two pairs: it would have to run the edge both ways.
+    let mut taken = vec![false; n];
+    let mut sheets = Vec::new();
+    let mut at = 0;
+    for i in 0..n {
+        let j = (i + 1) % n;
+        if around[i].2 != outward && around[j].2 == outward {
+            taken[i] = true;
+            taken[j] = true;
+            run[at] = around[i].1;
+            run[at + 1] = around[j].1;
+            at += 2;
+            sheets.push(2);
+        }
+    }
+    if sheets.is_empty() {
+        return None;
+    }
+    for (i, &(_, c, _)) in around.iter().enumerate() {
+        if !taken[i] {
+            run[at] = c;
+            at += 1;
+            sheets.push(1);
+        }
+    }
+    Some(sheets)
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum EdgeState {
-    /// One face: a boundary edge.
+    /// One face: a boundary edge, or a face left alone on an edge of more.
     Boundary,
     /// Two faces, not yet decided.
     Open,
@@ -339,21 +666,14 @@ enum EdgeState {
     Cut,
 }
 
-/// Step 4: greedy breadth-first orientation. Returns whether each face is
-/// flipped relative to the input, and each edge's state.
-fn orient(
-    tris: &[[u32; 3]],
-    edges: &EdgeTable,
-    report: &mut CleanReport,
-) -> (Vec<bool>, Vec<EdgeState>) {
+/// Step 5: greedy breadth-first orientation. Returns whether each face is
+/// flipped relative to the input, and each sheet's state.
+fn orient(tris: &[[u32; 3]], edges: &EdgeTable) -> (Vec<bool>, Vec<EdgeState>) {
     let mut state: Vec<EdgeState> = (0..edges.count())
         .map(|e| match edges.corners(e).len() {
             1 => EdgeState::Boundary,
             2 => EdgeState::Open,
-            _ => {
-                report.split_edges += 1;
-                EdgeState::Cut
-            }
+            _ => EdgeState::Cut,
         })
         .collect();
     let mut flip = vec![false; tris.len()];
@@ -390,7 +710,6 @@ fn orient(
                     state[e] = EdgeState::Joined;
                 } else {
                     state[e] = EdgeState::Cut;
-                    report.split_edges += 1;
                 }
             }
         }
@@ -418,6 +737,10 @@ fn next_corner(c: usize) -> usize {
     c - c % 3 + (c % 3 + 1) % 3
 }
 
+fn prev_corner(c: usize) -> usize {
+    c - c % 3 + (c % 3 + 2) % 3
+}
+
 /// The fan of every corner around its vertex: corners joined across
 /// [`EdgeState::Joined`] edges share a root (the smallest corner of the fan).
 fn corner_groups(tris: &[[u32; 3]], edges: &EdgeTable, state: &[EdgeState]) -> Vec<u32> {
@@ -442,14 +765,17 @@ fn corner_groups(tris: &[[u32; 3]], edges: &EdgeTable, state: &[EdgeState]) -> V
         .collect()
 }
 
-/// Corners of cut edges whose face still shares both end copies with an
-/// earlier corner of the same edge: each must be detached at its start.
-fn shared_cut_corners(edges: &EdgeTable, state: &[EdgeState], roots: &[u32]) -> Vec<usize> {
-    let mut detach = Vec::new();
+/// Corners whose face still shares both end copies with an earlier corner
+/// of the same undirected edge without being joined to it there (the output
+/// would have an edge of more than two faces), with their edge.
+fn shared_ends(edges: &EdgeTable, state: &[EdgeState], roots: &[u32]) -> Vec<(usize, usize)> {
+    let mut shared = Vec::new();
     let mut ends: Vec<(u32, u32, u32)> = Vec::new();
-    for (e, s) in state.iter().enumerate() {
-        let corners = edges.corners(e);
-        if corners.len() < 2 || *s == EdgeState::Joined {
+    for k in 0..edges.undirected() {
+        let corners = edges.edge_corners(k);
+        // One face, or two joined: nothing to share.
+        let joined = |c: u32| state[edges.edge_of[c as usize] as usize] == EdgeState::Joined;
+        if corners.len() < 2 || (corners.len() == 2 && joined(corners[0])) {
             continue;
         }
         ends.clear();
@@ -459,12 +785,33 @@ fn shared_cut_corners(edges: &EdgeTable, state: &[EdgeState], roots: &[u32]) -> 
         }
         ends.sort_unstable();
         for w in ends.windows(2) {
-            if (w[0].0, w[0].1) == (w[1].0, w[1].1) {
-                detach.push(w[1].2 as usize);
+            let (e, f) = (
+                edges.edge_of[w[0].2 as usize],
+                edges.edge_of[w[1].2 as usize],
+            );
+            let joined = e == f && state[e as usize] == EdgeState::Joined;
+            if (w[0].0, w[0].1) == (w[1].0, w[1].1) && !joined {
+                shared.push((k, w[1].2 as usize));
             }
         }
     }
-    detach
+    shared
+}
+
+/// Counts the edges split (some face not joined across them) and paired
+/// (split into sheets, and at least one of them joined).
+fn count_edges(edges: &EdgeTable, state: &[EdgeState], report: &mut CleanReport) {
+    for k in 0..edges.undirected() {
+        if edges.edge_corners(k).len() < 2 {
+            continue;
+        }
+        let joined = edges
+            .sheets(k)
+            .filter(|&e| state[e] == EdgeState::Joined)
+            .count();
+        report.paired_edges += usize::from(joined > 0 && edges.sheets(k).len() > 1);
+        report.split_edges += usize::from(edges.sheets(k).any(|e| state[e] != EdgeState::Joined));
+    }
 }
 
 /// Steps 6 and 7: components, orientation, compact numbering.
@@ -834,11 +1181,154 @@ mod tests {
         ];
         let f = [[0, 1, 2], [1, 0, 3], [0, 1, 4]];
         let c = clean(&poly(&p, &f)).unwrap();
-        assert_eq!(c.report.split_edges, 1);
+        // Two faces pair into a sheet, the third is cut loose.
+        assert_eq!((c.report.paired_edges, c.report.split_edges), (1, 1));
         assert_eq!(c.report.split_vertices, 2);
-        assert_eq!(c.components.len(), 3);
-        assert_eq!(c.report.output_vertices, 9);
+        assert_eq!(c.components.len(), 2);
+        assert_eq!(c.report.output_vertices, 7);
         assert_clean(&c);
+    }
+
+    /// Two cubes that touch along an edge: four faces on it, which pair
+    /// within each cube, so both stay closed (before, all four were cut
+    /// loose, leaving a slit in each).
+    fn touching_cubes(inward: bool) -> (Vec<[f64; 3]>, Vec<[u32; 4]>) {
+        let (mut p, mut f) = cube([0.; 3]);
+        let (p2, f2) = cube([1., 1., 0.]);
+        // Cube 2's edge 0-4 is cube 1's edge 3-7.
+        p.extend(p2);
+        f.extend(f2.iter().map(|q| q.map(|v| v + 8)));
+        if inward {
+            for q in &mut f {
+                q.reverse();
+            }
+        }
+        (p, f)
+    }
+
+    fn assert_closed_cubes(c: &Cleaned, n: usize) {
+        assert_eq!(c.components.len(), n);
+        for m in &c.components {
+            let t = topology(m);
+            assert!(t.manifold && t.is_closed() && t.genus == 0, "{t:?}");
+            assert!((volume(m).abs() - volume(m).abs().round()).abs() < 1e-12);
+            assert!(volume(m) > 0.0);
+        }
+    }
+
+    #[test]
+    fn cubes_touching_along_an_edge_stay_closed() {
+        let (p, f) = touching_cubes(false);
+        let c = clean(&poly(&p, &f)).unwrap();
+        assert_eq!((c.report.paired_edges, c.report.split_edges), (1, 0));
+        assert_eq!(c.report.split_vertices, 2);
+        assert_closed_cubes(&c, 2);
+    }
+
+    /// The pairing follows the input's orientation, guessed from the sign of
+    /// its volume; where that guess is wrong for a part, the other way of
+    /// pairing gives the simpler surface and is kept. Here the touching cubes
+    /// face inward inside a large outward box, so the guess says outward.
+    #[test]
+    fn the_simpler_pairing_wins() {
+        let (mut p, mut f) = touching_cubes(true);
+        let (big, fb) = cube([0.; 3]);
+        let at = p.len() as u32;
+        p.extend(big.iter().map(|q| q.map(|x| 10.0 * x + 20.0)));
+        f.extend(fb.iter().map(|q| q.map(|v| v + at)));
+        let c = clean(&poly(&p, &f)).unwrap();
+        assert_eq!((c.report.paired_edges, c.report.split_edges), (1, 0));
+        assert_closed_cubes(&c, 3);
+    }
+
+    /// Two tetrahedra glued on a face, the face stored once by each (so twice,
+    /// running opposite ways): the two copies cancel and a closed bipyramid
+    /// is left. Before, one copy was kept as a membrane inside, and its
+    /// three edges had three faces each.
+    #[test]
+    fn opposite_faces_between_parts_cancel() {
+        let p = [
+            [0., 0., 0.],
+            [1., 0., 0.],
+            [0., 1., 0.],
+            [0., 0., 1.],
+            [1., 1., 1.],
+        ];
+        // Outward: tetrahedron 0123, then 1234 (its face 1-2-3 runs the
+        // other way).
+        let f = [
+            [0, 2, 1],
+            [0, 1, 3],
+            [0, 3, 2],
+            [1, 2, 3],
+            [1, 3, 2],
+            [1, 4, 3],
+            [2, 3, 4],
+            [1, 2, 4],
+        ];
+        let c = clean(&poly(&p, &f)).unwrap();
+        assert_eq!(c.report.cancelled_faces, 2);
+        assert_eq!((c.report.split_edges, c.report.paired_edges), (0, 0));
+        assert_eq!(c.components.len(), 1);
+        let t = topology(&c.components[0]);
+        assert!(t.manifold && t.is_closed() && t.genus == 0, "{t:?}");
+        assert_eq!((t.vertices, t.faces), (5, 6));
+        assert!((volume(&c.components[0]) - 0.5).abs() < 1e-12);
+    }
+
+    /// A face stored again, reversed, on a closed surface: its edges meet one
+    /// other face each, so the pair does not cancel (that would leave a
+    /// hole); one face stays and the surface is closed.
+    #[test]
+    fn a_reversed_copy_on_a_closed_surface_leaves_it_closed() {
+        let (p, mut f) = tetra([0.; 3]);
+        f.push([0, 1, 2]); // face 0 reversed
+        let c = clean(&poly(&p, &f)).unwrap();
+        assert_eq!(
+            (c.report.dropped_duplicate, c.report.cancelled_faces),
+            (1, 0)
+        );
+        assert_eq!(c.components.len(), 1);
+        let t = topology(&c.components[0]);
+        assert!(t.manifold && t.is_closed() && t.genus == 0, "{t:?}");
+        assert!((volume(&c.components[0]) - 1.0 / 6.0).abs() < 1e-12);
+    }
+
+    /// The rule itself, each way: pairing across wedges inside the solid
+    /// keeps the outward touching cubes apart and closed; across wedges
+    /// outside, it joins them, which the fans at the edge's ends undo, and
+    /// the cut leaves a slit in each.
+    #[test]
+    fn pairing_inside_keeps_touching_parts_apart() {
+        let (p, f) = touching_cubes(false);
+        let mesh = poly(&p, &f);
+        let mut report = CleanReport::default();
+        let tris = triangulate(&mesh, &mut report).unwrap();
+        let (remap, positions) = merge_identical(&mesh.positions);
+        let tris = drop_bad_triangles(tris, &remap, &positions, &mut report);
+        let (inside, crowded) = resolve(&tris, &positions, CleanReport::default(), true).unwrap();
+        assert!(crowded);
+        assert_closed_cubes(&inside, 2);
+        let (outside, _) = resolve(&tris, &positions, CleanReport::default(), false).unwrap();
+        assert_eq!(outside.report.paired_edges, 0);
+        assert!(outside.components.iter().all(|m| !topology(m).is_closed()));
+    }
+
+    /// A two-sided sheet on its own (each face stored both ways, nothing else
+    /// attached) keeps one side instead of vanishing, also where a face is
+    /// stored a third time.
+    #[test]
+    fn a_free_two_sided_sheet_keeps_one_side() {
+        let p = [[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]];
+        let f = [[0, 1, 2], [0, 2, 3], [2, 1, 0], [3, 2, 0], [2, 3, 0]];
+        let c = clean(&poly(&p, &f)).unwrap();
+        assert_eq!(
+            (c.report.cancelled_faces, c.report.dropped_duplicate),
+            (0, 3)
+        );
+        assert_eq!(c.components.len(), 1);
+        let t = topology(&c.components[0]);
+        assert_eq!((t.faces, t.boundary_loops), (2, 1));
     }
 
     #[test]
@@ -882,7 +1372,7 @@ mod tests {
     #[test]
     fn duplicate_faces_drop() {
         let (p, mut f) = tetra([0.; 3]);
-        f.push([2, 1, 0]); // same set, other orientation
+        f.push([2, 1, 0]); // same as face 0, rotated
         f.push([1, 3, 0]); // same as face 1, rotated
         let c = clean(&poly(&p, &f)).unwrap();
         assert_eq!(c.report.dropped_duplicate, 2);

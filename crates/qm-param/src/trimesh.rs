@@ -32,3 +32,27 @@ impl TriMesh {
 pub fn triangle_area([a, b, c]: [DVec3; 3]) -> f64 {
     0.5 * (b - a).cross(c - a).length()
 }
+
+impl TriMesh {
+    /// The same surface with every triangle split into four at its edges'
+    /// midpoints (the new vertices follow the old, in order of first use).
+    pub fn split_at_midpoints(&self) -> TriMesh {
+        let mut positions = self.positions.clone();
+        let mut midpoint = std::collections::HashMap::new();
+        let mut mid = |a: u32, b: u32| {
+            *midpoint.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                positions.push(0.5 * (self.positions[a as usize] + self.positions[b as usize]));
+                (positions.len() - 1) as u32
+            })
+        };
+        let mut triangles = Vec::with_capacity(4 * self.triangles.len());
+        for &[a, b, c] in &self.triangles {
+            let (ab, bc, ca) = (mid(a, b), mid(b, c), mid(c, a));
+            triangles.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+        }
+        TriMesh {
+            positions,
+            triangles,
+        }
+    }
+}
