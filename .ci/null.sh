@@ -5,8 +5,10 @@
 # source. Where a sandbox gives a plain file for /dev/null, that file keeps
 # what is thrown away there (the cc crate's `cc -?` during a build, for
 # one), and the next cargo command fails in that probe. The device is put
-# back where that is allowed; otherwise `cargo` on the PATH becomes a shim
-# that empties the file before each command.
+# back where that is allowed. Otherwise the file is made writable by all
+# (apt's download methods, which drop root, cannot verify anything when
+# they cannot open it), and cargo, apt-get and npm on the PATH become shims
+# that empty it before each command.
 
 null_is_device() {
   [ -c /dev/null ] && [ "$(stat -c %t:%T /dev/null)" = 1:3 ]
@@ -20,11 +22,15 @@ if [ -z "${QM_CI_NULL_CHECKED:-}" ] && ! null_is_device; then
     echo "ci: /dev/null is the null device again" >&2
   else
     rm -f "$spare"
+    chmod a+rw /dev/null || true
     shim="$(mktemp -d)"
-    printf '#!/bin/sh\n: >/dev/null\nexec "%s" "$@"\n' "$(command -v cargo)" >"$shim/cargo"
-    chmod +x "$shim/cargo"
+    for tool in cargo apt-get npm; do
+      real="$(command -v "$tool")" || continue
+      printf '#!/bin/sh\n: >/dev/null\nexec "%s" "$@"\n' "$real" >"$shim/$tool"
+      chmod +x "$shim/$tool"
+    done
     export PATH="$shim:$PATH"
-    echo "ci: could not replace it; cargo empties it before each command" >&2
+    echo "ci: could not replace it; cargo, apt-get and npm empty it first" >&2
   fi
 fi
 export QM_CI_NULL_CHECKED=1
