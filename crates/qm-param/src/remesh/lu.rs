@@ -12,12 +12,14 @@
 //! does, with dense blocks.
 //!
 //! Left-looking, a supernode reads only its descendants in the elimination
-//! tree, and a subtree is a range of supernodes (postorder): whole subtrees
-//! below the top separators are factored in two halves at once (see
-//! [`split`]), then the separators; the two columns of the right-hand side
-//! are solved at once. Every supernode does the same arithmetic in the
-//! same order as on one thread, so the factors and solutions are the same
-//! bit for bit. On the bunny (in-process timings of all 13 solves of a
+//! tree, and where the ordering is a postorder a subtree is a range of
+//! supernodes (AMD's often is not, in places): such whole subtrees below
+//! the top separators are factored in two halves at once (see [`split`]),
+//! then the rest; the two columns of the right-hand side are solved at
+//! once. Every supernode does the same arithmetic in the same order as on
+//! one thread, so the factors and solutions are the same bit for bit; a
+//! failed pivot sends the factorization back to one thread from the start,
+//! so that it is reported where one thread meets it first. On the bunny (in-process timings of all 13 solves of a
 //! remesh, two runs each, machine not idle) a factorization took 23 to 32
 //! ms instead of 32 to 38 ms (about a third of the work is in the top
 //! separators, which stay on one thread), and a solve 6 ms instead of 12.
@@ -70,12 +72,20 @@ pub struct Symbolic {
     split: Vec<(std::ops::Range<usize>, usize)>,
 }
 
+/// A range of supernodes that is a whole subtree, with its stretch of `L`'s
+/// and `U^T`'s values.
+type Subtree<'a> = (std::ops::Range<usize>, &'a mut [f64], &'a mut [f64]);
+
 /// The numeric factors.
 #[derive(Default)]
 pub struct Numeric {
     l: Vec<f64>,
     u: Vec<f64>,
-    scratch: Vec<f64>,
+    /// Per half of [`Symbolic::split`] (the first also for the rest): the
+    /// rows' places in the supernode at hand (`usize::MAX` between
+    /// supernodes), and room for the dense products.
+    local: [Vec<usize>; 2],
+    scratch: [Vec<f64>; 2],
 }
 
 impl Symbolic {
@@ -208,6 +218,20 @@ impl Symbolic {
     /// `values` (in its order); `Err(i)` at a pivot that is not positive
     /// and finite, in ordered position `i`.
     pub fn factorize(&self, values: &[f64], numeric: &mut Numeric) -> Result<(), usize> {
+        self.scatter(values, numeric);
+        if !self.split.is_empty() && self.factor_split(numeric).is_err() {
+            // Where a pivot fails, the position one thread meets first:
+            // from the start, on one thread (a separator before the failed
+            // subtree may fail too).
+            self.scatter(values, numeric);
+            return self.factor_rest(numeric, &[]);
+        }
+        self.factor_rest(numeric, &self.split)
+    }
+
+    /// Puts the matrix `values` in the factors' storage, and readies the
+    /// row places.
+    fn scatter(&self, values: &[f64], numeric: &mut Numeric) {
         let total = self.values[self.supernodes()];
         let (l, u) = (&mut numeric.l, &mut numeric.u);
         l.clear();
@@ -221,11 +245,17 @@ impl Symbolic {
                 u[d - total] += v;
             }
         }
-        let n = self.forward.len();
-        // The split subtrees, each with its own stretch of the factors, by
-        // halves in parallel; the rest after them, with all the factors.
-        let mut parts: [Vec<_>; 2] = Default::default();
-        let (mut l_rest, mut u_rest, mut at) = (&mut l[..], &mut u[..], 0);
+        for local in &mut numeric.local {
+            local.clear();
+            local.resize(self.forward.len(), usize::MAX);
+        }
+    }
+
+    /// Factors the [`Symbolic::split`] subtrees, each half on a thread of
+    /// its own with its own stretch of the factors.
+    fn factor_split(&self, numeric: &mut Numeric) -> Result<(), usize> {
+        let mut parts: [Vec<Subtree<'_>>; 2] = Default::default();
+        let (mut l_rest, mut u_rest, mut at) = (&mut numeric.l[..], &mut numeric.u[..], 0);
         for (range, half) in &self.split {
             let (first, last) = (self.values[range.start], self.values[range.end]);
             let (l_part, l_after) = l_rest[first - at..].split_at_mut(last - first);
@@ -233,31 +263,53 @@ impl Symbolic {
             parts[*half].push((range.clone(), l_part, u_part));
             (l_rest, u_rest, at) = (l_after, u_after, last);
         }
-        let factor_half = |half: Vec<(std::ops::Range<usize>, &mut [f64], &mut [f64])>| {
-            let (mut local, mut scratch) = (vec![usize::MAX; n], Vec::new());
-            half.into_iter().try_for_each(|(range, l, u)| {
-                let base = self.values[range.start];
-                range
-                    .into_iter()
-                    .try_for_each(|s| self.supernode(s, l, u, base, &mut local, &mut scratch))
-            })
-        };
         let [first, second] = parts;
-        let (a, b) = rayon::join(|| factor_half(first), || factor_half(second));
-        match (a, b) {
-            (Err(i), Err(j)) => return Err(i.min(j)),
-            (Err(i), _) | (_, Err(i)) => return Err(i),
-            _ => {}
-        }
-        let mut local = vec![usize::MAX; n];
-        let mut split = self.split.iter().map(|(range, _)| range).peekable();
+        let ([local_a, local_b], [scratch_a, scratch_b]) =
+            (&mut numeric.local, &mut numeric.scratch);
+        let (a, b) = rayon::join(
+            || self.factor_subtrees(first, local_a, scratch_a),
+            || self.factor_subtrees(second, local_b, scratch_b),
+        );
+        a.and(b)
+    }
+
+    /// Factors whole subtrees, each in its own stretch of the factors.
+    fn factor_subtrees(
+        &self,
+        subtrees: Vec<Subtree<'_>>,
+        local: &mut [usize],
+        scratch: &mut Vec<f64>,
+    ) -> Result<(), usize> {
+        subtrees.into_iter().try_for_each(|(range, l, u)| {
+            let base = self.values[range.start];
+            range
+                .into_iter()
+                .try_for_each(|s| self.supernode(s, l, u, base, local, scratch))
+        })
+    }
+
+    /// Factors, in order and on this thread, every supernode outside the
+    /// ranges of `done` (ascending, already factored).
+    fn factor_rest(
+        &self,
+        numeric: &mut Numeric,
+        done: &[(std::ops::Range<usize>, usize)],
+    ) -> Result<(), usize> {
+        let mut done = done.iter().map(|(range, _)| range).peekable();
         let mut s = 0;
         while s < self.supernodes() {
-            if let Some(range) = split.next_if(|range| range.start == s) {
+            if let Some(range) = done.next_if(|range| range.start == s) {
                 s = range.end;
                 continue;
             }
-            self.supernode(s, l, u, 0, &mut local, &mut numeric.scratch)?;
+            self.supernode(
+                s,
+                &mut numeric.l,
+                &mut numeric.u,
+                0,
+                &mut numeric.local[0],
+                &mut numeric.scratch[0],
+            )?;
             s += 1;
         }
         Ok(())
@@ -265,7 +317,8 @@ impl Symbolic {
 
     /// Factors supernode `s` (left-looking: its descendants are done), in
     /// `l` and `u` that start at value `base` and hold it and every
-    /// descendant. `local` is all `usize::MAX` and left so.
+    /// descendant. `local` is all `usize::MAX`, and left so unless a pivot
+    /// fails.
     fn supernode(
         &self,
         s: usize,
@@ -410,9 +463,9 @@ impl Symbolic {
 /// roots down, the subtree with the most work is replaced by its children
 /// while it holds more than half of the work left in subtrees, and the
 /// subtrees then go, largest first, to the half with less work. Work is
-/// counted as `width height^2` per supernode. None when there are too few
-/// supernodes to be worth it, or the ordering does not keep every subtree
-/// in one range (postorder, which faer's supernodal structure has).
+/// counted as `width height^2` per supernode. Only subtrees that are one
+/// range of supernodes are taken (where the ordering is a postorder
+/// there); none when there are too few supernodes to be worth it.
 fn split(
     rows: &[usize],
     pattern: &[usize],
@@ -441,14 +494,27 @@ fn split(
             children[p].push(s);
         }
     }
-    // Subtree `s` is the range `first(s)..=s` if every node's parent holds
-    // it in its own range.
+    // Subtree `s` is the range `first(s)..=s` (`whole[s]`) if its children's
+    // subtrees are, and lie in that range: then they tile it, their sizes
+    // adding up to its length. AMD's ordering is often not a postorder.
     let first = |s: usize| s + 1 - size[s];
-    if (0..supernodes).any(|s| parent[s].is_some_and(|p| s < first(p))) {
-        return Vec::new();
+    let mut whole = vec![true; supernodes];
+    for s in 0..supernodes {
+        if let Some(p) = parent[s] {
+            whole[p] &= whole[s] && first(s) >= first(p);
+        }
     }
     let mut frontier: Vec<usize> = (0..supernodes).filter(|&s| parent[s].is_none()).collect();
     loop {
+        // A subtree that is not one range is replaced by its children.
+        if let Some(at) = frontier.iter().position(|&s| !whole[s]) {
+            let s = frontier.swap_remove(at);
+            frontier.extend_from_slice(&children[s]);
+            continue;
+        }
+        if frontier.is_empty() {
+            return Vec::new();
+        }
         let total: f64 = frontier.iter().map(|&s| work[s]).sum();
         let (at, &largest) = frontier
             .iter()
@@ -630,6 +696,26 @@ mod tests {
         }
     }
 
+    /// The structure of `pattern` without a split: all on one thread.
+    fn one_thread(pattern: SymbolicSparseColMatRef<'_, usize>) -> Symbolic {
+        Symbolic {
+            split: Vec::new(),
+            ..Symbolic::new(pattern).unwrap()
+        }
+    }
+
+    /// Factors `values` with both structures, and checks that the factors
+    /// are the same bit for bit.
+    fn same_factors(split: &Symbolic, one: &Symbolic, values: &[f64]) -> (Numeric, Numeric) {
+        let (mut a, mut b) = (Numeric::default(), Numeric::default());
+        split.factorize(values, &mut a).unwrap();
+        one.factorize(values, &mut b).unwrap();
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&a.l), bits(&b.l));
+        assert_eq!(bits(&a.u), bits(&b.u));
+        (a, b)
+    }
+
     /// The halves factored in parallel give the factors and solutions of
     /// one thread, bit for bit, and the split is real: whole subtrees in
     /// both halves, holding most of the work.
@@ -655,16 +741,8 @@ mod tests {
             "{in_split} of {}",
             split.supernodes()
         );
-        let one = Symbolic {
-            split: Vec::new(),
-            ..Symbolic::new(pattern).unwrap()
-        };
-        let (mut a, mut b) = (Numeric::default(), Numeric::default());
-        split.factorize(&values, &mut a).unwrap();
-        one.factorize(&values, &mut b).unwrap();
-        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-        assert_eq!(bits(&a.l), bits(&b.l));
-        assert_eq!(bits(&a.u), bits(&b.u));
+        let one = one_thread(pattern);
+        let (a, b) = same_factors(&split, &one, &values);
         let rhs = Mat::<f64>::from_fn(n, 2, |_, _| noise(&mut state) - 0.5);
         let (mut x, mut y) = (rhs.clone(), rhs.clone());
         split.solve(&a, x.as_mut());
@@ -674,6 +752,111 @@ mod tests {
                 assert_eq!(x[(i, c)].to_bits(), y[(i, c)].to_bits(), "{i} {c}");
             }
         }
+    }
+
+    /// The M-matrix of a graph on `n` vertices: each edge weighted each way
+    /// at random, the diagonal the row's sum plus one. Column pointers, row
+    /// indices and values.
+    fn graph(
+        n: usize,
+        edges: &[(usize, usize)],
+        state: &mut u64,
+    ) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
+        let mut columns: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n];
+        let mut diagonal = vec![1.0; n];
+        let mut edges: Vec<(usize, usize)> = edges
+            .iter()
+            .filter(|e| e.0 != e.1)
+            .map(|&(a, b)| (a.min(b), a.max(b)))
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        for (a, b) in edges {
+            for (from, to) in [(a, b), (b, a)] {
+                let w = 10f64.powf(4.0 * noise(state) - 2.0);
+                columns[to].push((from, -w));
+                diagonal[from] += w;
+            }
+        }
+        let (mut col_ptr, mut row_idx, mut values) = (vec![0], Vec::new(), Vec::new());
+        for (j, mut column) in columns.into_iter().enumerate() {
+            column.push((j, diagonal[j]));
+            column.sort_by_key(|e| e.0);
+            row_idx.extend(column.iter().map(|e| e.0));
+            values.extend(column.iter().map(|e| e.1));
+            col_ptr.push(row_idx.len());
+        }
+        (col_ptr, row_idx, values)
+    }
+
+    /// Whether every subtree of the supernodes' elimination tree is one
+    /// range of supernodes.
+    fn postordered(symbolic: &Symbolic) -> bool {
+        let supernodes = symbolic.supernodes();
+        let owner = |r: usize| symbolic.begin.partition_point(|&b| b <= r) - 1;
+        let parent: Vec<Option<usize>> = (0..supernodes)
+            .map(|s| symbolic.rows_of(s).first().map(|&r| owner(r)))
+            .collect();
+        let mut size = vec![1usize; supernodes];
+        for s in 0..supernodes {
+            if let Some(p) = parent[s] {
+                size[p] += size[s];
+            }
+        }
+        (0..supernodes).all(|s| parent[s].is_none_or(|p| s + 1 - size[s] >= p + 1 - size[p]))
+    }
+
+    /// On graphs with local and long edges (whose orderings are often not
+    /// postorders) the halves factor as one thread does, bit for bit, and a
+    /// pivot that fails is reported where one thread meets it first, also
+    /// with two failing pivots, in a top separator and a later subtree.
+    #[test]
+    fn irregular_trees_split_only_into_whole_subtrees() {
+        let mut state = 11;
+        let (mut split_trees, mut mixed_trees, mut failures) = (0, 0, 0);
+        for _ in 0..300 {
+            let n = 64 + (noise(&mut state) * 400.0) as usize;
+            let mut edges = Vec::new();
+            for i in 0..n {
+                for _ in 0..3 {
+                    let step = if noise(&mut state) < 0.9 {
+                        1 + (noise(&mut state) * 8.0) as usize
+                    } else {
+                        (noise(&mut state) * n as f64) as usize
+                    };
+                    edges.push((i, (i + step) % n));
+                }
+            }
+            let (col_ptr, row_idx, values) = graph(n, &edges, &mut state);
+            let pattern = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
+            let split = Symbolic::new(pattern).unwrap();
+            if split.split.is_empty() {
+                continue;
+            }
+            split_trees += 1;
+            mixed_trees += usize::from(!postordered(&split));
+            let one = one_thread(pattern);
+            let (mut a, mut b) = same_factors(&split, &one, &values);
+            // A separator before the last subtree, and that subtree.
+            let in_split = |s: usize| split.split.iter().any(|(r, _)| r.contains(&s));
+            let last = split.split.last().unwrap().0.start;
+            if let Some(top) = (0..last).find(|&s| !in_split(s)) {
+                failures += 1;
+                let mut broken = values.clone();
+                for position in [split.begin[top], split.begin[last]] {
+                    let u = split.forward[position];
+                    let k = (col_ptr[u]..col_ptr[u + 1]).find(|&k| row_idx[k] == u);
+                    broken[k.unwrap()] = f64::NAN;
+                }
+                let expected = one.factorize(&broken, &mut b);
+                assert!(expected.is_err());
+                assert_eq!(split.factorize(&broken, &mut a), expected);
+            }
+        }
+        assert!(
+            split_trees > 100 && mixed_trees > 10 && failures > 10,
+            "{split_trees} {mixed_trees} {failures}"
+        );
     }
 
     /// A pivot that vanishes is reported, not divided by.
