@@ -16,20 +16,23 @@ null_is_device() {
 
 if [ -z "${QM_CI_NULL_CHECKED:-}" ] && ! null_is_device; then
   echo "ci: /dev/null is a $(stat -c %F /dev/null 2>&1), not the null device" >&2
-  spare="/dev/.qm-ci-null.$$"
-  if mknod -m 666 "$spare" c 1 3 && : >"$spare" && [ -z "$(head -c 1 "$spare")" ] &&
-    mv -f "$spare" /dev/null && null_is_device; then
+  qm_ci_spare="/dev/.qm-ci-null.$$"
+  if mknod -m 666 "$qm_ci_spare" c 1 3 && : >"$qm_ci_spare" &&
+    [ -z "$(head -c 1 "$qm_ci_spare")" ] && mv -f "$qm_ci_spare" /dev/null && null_is_device; then
     echo "ci: /dev/null is the null device again" >&2
   else
-    rm -f "$spare"
+    rm -f "$qm_ci_spare"
     chmod a+rw /dev/null || true
-    shim="$(mktemp -d)"
-    for tool in cargo apt-get npm; do
-      real="$(command -v "$tool")" || continue
-      printf '#!/bin/sh\n: >/dev/null\nexec "%s" "$@"\n' "$real" >"$shim/$tool"
-      chmod +x "$shim/$tool"
+    qm_ci_shim="$(mktemp -d)"
+    for qm_ci_tool in cargo apt-get npm; do
+      qm_ci_real="$(command -v "$qm_ci_tool")" || continue
+      # `true`, not `:`: sh leaves a script whose special builtin fails to
+      # redirect (a file this user may not write), and cargo would not run.
+      printf '#!/bin/sh\n[ -w /dev/null ] && true >/dev/null\nexec "%s" "$@"\n' \
+        "$qm_ci_real" >"$qm_ci_shim/$qm_ci_tool"
+      chmod +x "$qm_ci_shim/$qm_ci_tool"
     done
-    export PATH="$shim:$PATH"
+    export PATH="$qm_ci_shim:$PATH"
     echo "ci: could not replace it; cargo, apt-get and npm empty it first" >&2
   fi
 fi
