@@ -19,10 +19,13 @@
 //! once. Every supernode does the same arithmetic in the same order as on
 //! one thread, so the factors and solutions are the same bit for bit; a
 //! failed pivot sends the factorization back to one thread from the start,
-//! so that it is reported where one thread meets it first. On the bunny (in-process timings of all 13 solves of a
-//! remesh, two runs each, machine not idle) a factorization took 23 to 32
-//! ms instead of 32 to 38 ms (about a third of the work is in the top
-//! separators, which stay on one thread), and a solve 6 ms instead of 12.
+//! so that it is reported where one thread meets it first.
+//!
+//! On the bunny (in-process timings of the 13 solves of a remesh, 4 runs
+//! of each build interleaved, machine not idle) the median factorization
+//! took 35.4 ms instead of 39.6 ms (about a third of the work is in the
+//! top separators, which stay on one thread) and the median solve 8.5 ms
+//! instead of 14.0.
 //!
 //! faer's general sparse LU (partial pivoting, COLAMD ordering) has to
 //! allow for any row exchange, so its factors follow the pattern of
