@@ -11,9 +11,11 @@
 //!   mesh (default: the bundled meshes in `assets/`), measured as surface
 //!   distance to the input; writes `rd.csv`, `table1.md`, `summary.md`,
 //!   `rd.svg` and `rd.png` (default into `target/rd/`). See [`rd`].
-//! - `remesh-bench [--level L] [--normal-remesh on|off] [MESH ...]`: remesh
-//!   time and peak memory per mesh, each in a process of its own (default:
-//!   the bunny and a generated 500k-vertex torus). See [`remesh_bench`].
+//! - `remesh-bench [--level L] [--normal-remesh on|off] [--runs N]
+//!   [--against XTASK] [MESH ...]`: remesh time and peak memory per mesh,
+//!   each in a process of its own (default: the bunny and a generated
+//!   500k-vertex torus), medians of `N` runs, interleaved with another
+//!   build's. See [`remesh_bench`].
 //! - `ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--cuts N]
 //!   [--out FILE]`: two encoder (and remesher) settings compared at equal
 //!   bytes on the same models. See [`ab`].
@@ -49,7 +51,7 @@ fn main() -> ExitCode {
         Some("budget") => budget::run(&args[1..]),
         _ => Err("usage: cargo xtask pass-table [MESH ...]\n       \
                   cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]\n       \
-                  cargo xtask remesh-bench [--level L] [--normal-remesh on|off] [MESH ...]\n       \
+                  cargo xtask remesh-bench [--level L] [--normal-remesh on|off] [--runs N] [--against XTASK] [MESH ...]\n       \
                   cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--cuts N] [--out FILE]\n       \
                   cargo xtask details [FILE|DIR ...]\n       \
                   cargo xtask budget [--models FILE|DIR ...] [--db DB ...]"

@@ -1,5 +1,5 @@
-//! `cargo xtask remesh-bench [--level L] [--normal-remesh on|off] [MESH ...]`:
-//! remesh time and peak memory.
+//! `cargo xtask remesh-bench [--level L] [--normal-remesh on|off] [--runs N]
+//! [--against XTASK] [MESH ...]`: remesh time and peak memory.
 //!
 //! Each mesh is remeshed (with the defaults, or at level `L`, or without
 //! the normal placement of the samples) in a child
@@ -9,6 +9,13 @@
 //! thousand vertices. Default meshes: the Stanford bunny from
 //! `../shared/models` (when present) and `generated-torus-500k`. Prints a
 //! Markdown table.
+//!
+//! With `--runs N` each mesh is remeshed `N` times and the table gives the
+//! medians (and the range of the remesh times). With `--against XTASK`,
+//! another build's xtask binary (a copy of `target/release/xtask` made
+//! before a change) remeshes each mesh too, its runs interleaved with this
+//! build's so that both meet the same machine, and a second table gives
+//! the ratio of the median remesh times and peaks, this build over that.
 
 use std::f64::consts::TAU;
 use std::path::{Path, PathBuf};
@@ -47,6 +54,26 @@ pub fn run(args: &[String]) -> Result<(), String> {
     {
         return child(mesh, level, normal);
     }
+    let mut runs = 1;
+    if let Some(at) = args.iter().position(|a| a == "--runs") {
+        let value = args.get(at + 1).ok_or("--runs needs a value")?;
+        runs = value
+            .parse::<usize>()
+            .ok()
+            .filter(|&n| n >= 1)
+            .ok_or_else(|| format!("--runs {value}: not a count of at least 1"))?;
+        args.drain(at..at + 2);
+    }
+    let mut against = None;
+    if let Some(at) = args.iter().position(|a| a == "--against") {
+        let value = args.get(at + 1).ok_or("--against needs an xtask binary")?;
+        let path = PathBuf::from(value);
+        if !path.is_file() {
+            return Err(format!("--against {value}: no such file"));
+        }
+        against = Some(path);
+        args.drain(at..at + 2);
+    }
     let meshes: Vec<String> = if args.is_empty() {
         let bunny = super::workspace().join("../shared/models/stanford-bunny.obj");
         let mut m = Vec::new();
@@ -59,25 +86,124 @@ pub fn run(args: &[String]) -> Result<(), String> {
         args
     };
     let me = std::env::current_exe().map_err(|e| e.to_string())?;
-    println!("| mesh | input vertices | samples | read | remesh | peak memory |");
-    println!("|---|---|---|---|---|---|");
+    let builds: Vec<PathBuf> = std::iter::once(me).chain(against.clone()).collect();
+    let mut table = String::from(
+        "| mesh | input vertices | samples | read | remesh | peak memory |\n|---|---|---|---|---|---|\n",
+    );
+    let mut ratios =
+        String::from("| mesh | remesh, this / against | peak, this / against |\n|---|---|---|\n");
     for mesh in meshes {
-        let mut command = Command::new(&me);
-        command.args(["remesh-bench", "--child", &mesh]);
-        if let Some(level) = level {
-            command.args(["--level", &level.to_string()]);
+        // Per build, its runs' rows; the builds take turns.
+        let mut rows: Vec<Vec<Row>> = vec![Vec::new(); builds.len()];
+        for _ in 0..runs {
+            for (build, exe) in builds.iter().enumerate() {
+                rows[build].push(run_child(exe, &mesh, level, normal)?);
+            }
         }
-        command.args(["--normal-remesh", if normal { "on" } else { "off" }]);
-        let out = command.output().map_err(|e| format!("{mesh}: {e}"))?;
-        if !out.status.success() {
-            return Err(format!(
-                "{mesh}: {}",
-                String::from_utf8_lossy(&out.stderr).trim()
+        let medians: Vec<Row> = rows.iter().map(|r| Row::median(r)).collect();
+        for (build, (row, runs)) in medians.iter().zip(&rows).enumerate() {
+            let label = if build == 0 { "" } else { " (against)" };
+            let (lo, hi) = runs.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), r| {
+                (lo.min(r.remesh_s), hi.max(r.remesh_s))
+            });
+            let spread = if runs.len() > 1 {
+                format!(" ({lo:.2} to {hi:.2}, median of {})", runs.len())
+            } else {
+                String::new()
+            };
+            table.push_str(&format!(
+                "| {}{label} | {} | {} | {:.2} s | {:.2} s{spread} | {} MB |\n",
+                row.name, row.vertices, row.samples, row.read_s, row.remesh_s, row.peak_mb
             ));
         }
-        print!("{}", String::from_utf8_lossy(&out.stdout));
+        if let [this, other] = &medians[..] {
+            ratios.push_str(&format!(
+                "| {} | {:.3} | {:.3} |\n",
+                this.name,
+                this.remesh_s / other.remesh_s,
+                this.peak_mb / other.peak_mb
+            ));
+        }
+    }
+    print!("{table}");
+    if against.is_some() {
+        print!("\n{ratios}");
     }
     Ok(())
+}
+
+/// One remesh as a child reports it (its table row, parsed).
+#[derive(Clone, Debug, PartialEq)]
+struct Row {
+    name: String,
+    vertices: String,
+    samples: String,
+    read_s: f64,
+    remesh_s: f64,
+    peak_mb: f64,
+}
+
+impl Row {
+    /// Parses `| name | vertices | samples | 0.02 s | 2.38 s | 334 MB |`.
+    fn parse(line: &str) -> Option<Row> {
+        let cells: Vec<&str> = line
+            .trim()
+            .trim_matches('|')
+            .split('|')
+            .map(str::trim)
+            .collect();
+        let [name, vertices, samples, read, remesh, peak] = cells[..] else {
+            return None;
+        };
+        let number = |cell: &str, unit: &str| cell.strip_suffix(unit)?.trim().parse::<f64>().ok();
+        Some(Row {
+            name: name.to_string(),
+            vertices: vertices.to_string(),
+            samples: samples.to_string(),
+            read_s: number(read, "s")?,
+            remesh_s: number(remesh, "s")?,
+            peak_mb: number(peak, "MB")?,
+        })
+    }
+
+    /// The first row with each time and the peak replaced by its median
+    /// over `rows` (the mean of the middle two for an even count).
+    fn median(rows: &[Row]) -> Row {
+        let median = |value: fn(&Row) -> f64| {
+            let mut v: Vec<f64> = rows.iter().map(value).collect();
+            v.sort_by(f64::total_cmp);
+            let n = v.len();
+            (v[(n - 1) / 2] + v[n / 2]) / 2.0
+        };
+        Row {
+            read_s: median(|r| r.read_s),
+            remesh_s: median(|r| r.remesh_s),
+            peak_mb: median(|r| r.peak_mb),
+            ..rows[0].clone()
+        }
+    }
+}
+
+/// Remeshes `mesh` in a child process of the xtask binary `exe`.
+fn run_child(exe: &Path, mesh: &str, level: Option<u32>, normal: bool) -> Result<Row, String> {
+    let mut command = Command::new(exe);
+    command.args(["remesh-bench", "--child", mesh]);
+    if let Some(level) = level {
+        command.args(["--level", &level.to_string()]);
+    }
+    command.args(["--normal-remesh", if normal { "on" } else { "off" }]);
+    let out = command.output().map_err(|e| format!("{mesh}: {e}"))?;
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    if !out.status.success() {
+        return Err(format!(
+            "{mesh}: {}",
+            String::from_utf8_lossy(&out.stderr).trim()
+        ));
+    }
+    stdout
+        .lines()
+        .find_map(Row::parse)
+        .ok_or_else(|| format!("{mesh}: {} printed no table row: {stdout}", exe.display()))
 }
 
 /// Runs in the child: one mesh, one table row.
@@ -148,4 +274,48 @@ fn bumpy_torus(n: u32, m: u32) -> PolyMesh {
         }
     }
     PolyMesh::from_faces(positions, &faces)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(remesh_s: f64, peak_mb: f64) -> Row {
+        Row {
+            name: "m".into(),
+            vertices: "3".into(),
+            samples: "9".into(),
+            read_s: 0.01,
+            remesh_s,
+            peak_mb,
+        }
+    }
+
+    #[test]
+    fn a_child_row_parses() {
+        let r = Row::parse("| stanford-bunny.obj | 35947 | 1049277 | 0.02 s | 2.38 s | 334 MB |");
+        let expected = Row {
+            name: "stanford-bunny.obj".into(),
+            vertices: "35947".into(),
+            samples: "1049277".into(),
+            read_s: 0.02,
+            remesh_s: 2.38,
+            peak_mb: 334.0,
+        };
+        assert_eq!(r, Some(expected));
+        assert_eq!(
+            Row::parse("| mesh | input vertices | samples | read | remesh | peak memory |"),
+            None
+        );
+        assert_eq!(Row::parse("|---|---|---|---|---|---|"), None);
+    }
+
+    #[test]
+    fn medians_of_odd_and_even_counts() {
+        let rows = [row(3.0, 10.0), row(1.0, 30.0), row(2.0, 20.0)];
+        let m = Row::median(&rows);
+        assert_eq!((m.remesh_s, m.peak_mb), (2.0, 20.0));
+        let m = Row::median(&rows[..2]);
+        assert_eq!((m.remesh_s, m.peak_mb), (2.0, 20.0));
+    }
 }
