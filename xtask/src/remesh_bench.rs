@@ -67,10 +67,12 @@ pub fn run(args: &[String]) -> Result<(), String> {
     let mut against = None;
     if let Some(at) = args.iter().position(|a| a == "--against") {
         let value = args.get(at + 1).ok_or("--against needs an xtask binary")?;
-        let path = PathBuf::from(value);
-        if !path.is_file() {
-            return Err(format!("--against {value}: no such file"));
-        }
+        // Absolute, so that a bare name means the file here, not one on
+        // the PATH.
+        let path = std::fs::canonicalize(value)
+            .ok()
+            .filter(|p| p.is_file())
+            .ok_or_else(|| format!("--against {value}: no such file"))?;
         against = Some(path);
         args.drain(at..at + 2);
     }
@@ -92,13 +94,30 @@ pub fn run(args: &[String]) -> Result<(), String> {
     );
     let mut ratios =
         String::from("| mesh | remesh, this / against | peak, this / against |\n|---|---|---|\n");
+    // Progress on a terminal only.
+    let tty = std::io::IsTerminal::is_terminal(&std::io::stderr());
     for mesh in meshes {
         // Per build, its runs' rows; the builds take turns.
         let mut rows: Vec<Vec<Row>> = vec![Vec::new(); builds.len()];
-        for _ in 0..runs {
-            for (build, exe) in builds.iter().enumerate() {
-                rows[build].push(run_child(exe, &mesh, level, normal)?);
+        for round in 0..runs {
+            // Each build goes first in every other round.
+            let mut order: Vec<usize> = (0..builds.len()).collect();
+            if round % 2 == 1 {
+                order.reverse();
             }
+            for build in order {
+                if tty {
+                    eprint!("\r{mesh}: run {} of {runs}\x1b[K", round + 1);
+                }
+                let row = run_child(&builds[build], &mesh, level, normal);
+                if tty && row.is_err() {
+                    eprintln!();
+                }
+                rows[build].push(row?);
+            }
+        }
+        if tty {
+            eprint!("\r\x1b[K");
         }
         let medians: Vec<Row> = rows.iter().map(|r| Row::median(r)).collect();
         for (build, (row, runs)) in medians.iter().zip(&rows).enumerate() {
@@ -112,16 +131,23 @@ pub fn run(args: &[String]) -> Result<(), String> {
                 String::new()
             };
             table.push_str(&format!(
-                "| {}{label} | {} | {} | {:.2} s | {:.2} s{spread} | {} MB |\n",
-                row.name, row.vertices, row.samples, row.read_s, row.remesh_s, row.peak_mb
+                "| {}{label} | {} | {} | {:.2} s | {:.2} s{spread} | {} |\n",
+                row.name,
+                row.vertices,
+                row.samples,
+                row.read_s,
+                row.remesh_s,
+                row.peak_mb.map_or("?".into(), |mb| format!("{mb:.0} MB"))
             ));
         }
         if let [this, other] = &medians[..] {
             ratios.push_str(&format!(
-                "| {} | {:.3} | {:.3} |\n",
+                "| {} | {:.2} | {} |\n",
                 this.name,
                 this.remesh_s / other.remesh_s,
-                this.peak_mb / other.peak_mb
+                this.peak_mb
+                    .zip(other.peak_mb)
+                    .map_or("?".into(), |(a, b)| format!("{:.2}", a / b))
             ));
         }
     }
@@ -140,11 +166,13 @@ struct Row {
     samples: String,
     read_s: f64,
     remesh_s: f64,
-    peak_mb: f64,
+    /// `None` where the child could not tell (`?`).
+    peak_mb: Option<f64>,
 }
 
 impl Row {
-    /// Parses `| name | vertices | samples | 0.02 s | 2.38 s | 334 MB |`.
+    /// Parses `| name | vertices | samples | 0.02 s | 2.38 s | 334 MB |`
+    /// (the peak may be `? MB`), as [`child`] prints it.
     fn parse(line: &str) -> Option<Row> {
         let cells: Vec<&str> = line
             .trim()
@@ -162,22 +190,25 @@ impl Row {
             samples: samples.to_string(),
             read_s: number(read, "s")?,
             remesh_s: number(remesh, "s")?,
-            peak_mb: number(peak, "MB")?,
+            peak_mb: match peak.strip_suffix("MB").map(str::trim) {
+                Some("?") => None,
+                _ => Some(number(peak, "MB")?),
+            },
         })
     }
 
     /// The first row with each time and the peak replaced by its median
     /// over `rows` (the mean of the middle two for an even count).
     fn median(rows: &[Row]) -> Row {
-        let median = |value: fn(&Row) -> f64| {
-            let mut v: Vec<f64> = rows.iter().map(value).collect();
+        let median = |value: fn(&Row) -> Option<f64>| {
+            let mut v: Vec<f64> = rows.iter().map(value).collect::<Option<_>>()?;
             v.sort_by(f64::total_cmp);
             let n = v.len();
-            (v[(n - 1) / 2] + v[n / 2]) / 2.0
+            Some((v[(n - 1) / 2] + v[n / 2]) / 2.0)
         };
         Row {
-            read_s: median(|r| r.read_s),
-            remesh_s: median(|r| r.remesh_s),
+            read_s: median(|r| Some(r.read_s)).expect("every row has it"),
+            remesh_s: median(|r| Some(r.remesh_s)).expect("every row has it"),
             peak_mb: median(|r| r.peak_mb),
             ..rows[0].clone()
         }
@@ -192,18 +223,23 @@ fn run_child(exe: &Path, mesh: &str, level: Option<u32>, normal: bool) -> Result
         command.args(["--level", &level.to_string()]);
     }
     command.args(["--normal-remesh", if normal { "on" } else { "off" }]);
-    let out = command.output().map_err(|e| format!("{mesh}: {e}"))?;
+    let exe_name = exe.display();
+    let out = command
+        .output()
+        .map_err(|e| format!("{exe_name} on {mesh}: {e}"))?;
     let stdout = String::from_utf8_lossy(&out.stdout);
     if !out.status.success() {
+        // The child's own error names the mesh.
         return Err(format!(
-            "{mesh}: {}",
+            "{exe_name} remesh-bench --child ({}): {}",
+            out.status,
             String::from_utf8_lossy(&out.stderr).trim()
         ));
     }
     stdout
         .lines()
         .find_map(Row::parse)
-        .ok_or_else(|| format!("{mesh}: {} printed no table row: {stdout}", exe.display()))
+        .ok_or_else(|| format!("{exe_name} on {mesh} printed no table row: {stdout}"))
 }
 
 /// Runs in the child: one mesh, one table row.
@@ -232,12 +268,30 @@ fn child(mesh: &str, level: Option<u32>, normal: bool) -> Result<(), String> {
         .file_name()
         .map_or(mesh.to_string(), |n| n.to_string_lossy().into_owned());
     println!(
-        "| {name} | {} | {} | {read_s:.2} s | {remesh_s:.2} s | {} MB |",
-        input.positions.len(),
-        remeshed.mesh.layout().sample_count(),
-        peak_kb().map_or("?".into(), |kb| (kb / 1024).to_string()),
+        "{}",
+        child_row(
+            &name,
+            input.positions.len(),
+            remeshed.mesh.layout().sample_count(),
+            (read_s, remesh_s),
+            peak_kb(),
+        )
     );
     Ok(())
+}
+
+/// The child's table row, which [`Row::parse`] reads.
+fn child_row(
+    name: &str,
+    vertices: usize,
+    samples: usize,
+    (read_s, remesh_s): (f64, f64),
+    peak_kb: Option<u64>,
+) -> String {
+    format!(
+        "| {name} | {vertices} | {samples} | {read_s:.3} s | {remesh_s:.3} s | {} MB |",
+        peak_kb.map_or("?".into(), |kb| (kb / 1024).to_string()),
+    )
 }
 
 fn read(path: &Path) -> Result<PolyMesh, String> {
@@ -287,7 +341,7 @@ mod tests {
             samples: "9".into(),
             read_s: 0.01,
             remesh_s,
-            peak_mb,
+            peak_mb: Some(peak_mb),
         }
     }
 
@@ -300,9 +354,15 @@ mod tests {
             samples: "1049277".into(),
             read_s: 0.02,
             remesh_s: 2.38,
-            peak_mb: 334.0,
+            peak_mb: Some(334.0),
         };
-        assert_eq!(r, Some(expected));
+        assert_eq!(r, Some(expected.clone()));
+        let r = Row::parse("| stanford-bunny.obj | 35947 | 1049277 | 0.02 s | 2.38 s | ? MB |");
+        let unknown = Row {
+            peak_mb: None,
+            ..expected
+        };
+        assert_eq!(r, Some(unknown));
         assert_eq!(
             Row::parse("| mesh | input vertices | samples | read | remesh | peak memory |"),
             None
@@ -311,11 +371,22 @@ mod tests {
     }
 
     #[test]
+    fn the_child_row_parses_back() {
+        for peak_kb in [Some(342_016), None] {
+            let line = child_row("spot.obj", 2930, 10804, (0.0125, 1.5), peak_kb);
+            let r = Row::parse(&line).expect(&line);
+            assert_eq!((r.name.as_str(), r.vertices.as_str()), ("spot.obj", "2930"));
+            assert_eq!((r.read_s, r.remesh_s), (0.013, 1.5));
+            assert_eq!(r.peak_mb, peak_kb.map(|_| 334.0));
+        }
+    }
+
+    #[test]
     fn medians_of_odd_and_even_counts() {
         let rows = [row(3.0, 10.0), row(1.0, 30.0), row(2.0, 20.0)];
         let m = Row::median(&rows);
-        assert_eq!((m.remesh_s, m.peak_mb), (2.0, 20.0));
+        assert_eq!((m.remesh_s, m.peak_mb), (2.0, Some(20.0)));
         let m = Row::median(&rows[..2]);
-        assert_eq!((m.remesh_s, m.peak_mb), (2.0, 20.0));
+        assert_eq!((m.remesh_s, m.peak_mb), (2.0, Some(20.0)));
     }
 }
