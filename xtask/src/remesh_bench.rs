@@ -30,52 +30,44 @@ const TORUS: &str = "generated-torus-";
 
 pub fn run(args: &[String]) -> Result<(), String> {
     let mut args = args.to_vec();
-    let mut level = None;
-    if let Some(at) = args.iter().position(|a| a == "--level") {
-        let value = args.get(at + 1).ok_or("--level needs a value")?;
-        level = Some(
+    let level = take(&mut args, "--level", "a value")?
+        .map(|value| {
             value
                 .parse::<u32>()
-                .map_err(|_| format!("--level {value}: not a level"))?,
-        );
-        args.drain(at..at + 2);
-    }
-    let mut normal = qm::RemeshOptions::DEFAULT.normal;
-    if let Some(at) = args.iter().position(|a| a == "--normal-remesh") {
-        normal = match args.get(at + 1).map(String::as_str) {
-            Some("on") => true,
-            Some("off") => false,
-            _ => return Err("--normal-remesh needs on or off".into()),
-        };
-        args.drain(at..at + 2);
-    }
+                .map_err(|_| format!("--level {value}: not a level"))
+        })
+        .transpose()?;
+    let normal = match take(&mut args, "--normal-remesh", "on or off")?.as_deref() {
+        None => qm::RemeshOptions::DEFAULT.normal,
+        Some("on") => true,
+        Some("off") => false,
+        Some(_) => return Err("--normal-remesh needs on or off".into()),
+    };
     if let [flag, mesh] = &args[..]
         && flag == "--child"
     {
         return child(mesh, level, normal);
     }
-    let mut runs = 1;
-    if let Some(at) = args.iter().position(|a| a == "--runs") {
-        let value = args.get(at + 1).ok_or("--runs needs a value")?;
-        runs = value
-            .parse::<usize>()
-            .ok()
-            .filter(|&n| n >= 1)
-            .ok_or_else(|| format!("--runs {value}: not a count of at least 1"))?;
-        args.drain(at..at + 2);
-    }
-    let mut against = None;
-    if let Some(at) = args.iter().position(|a| a == "--against") {
-        let value = args.get(at + 1).ok_or("--against needs an xtask binary")?;
-        // Absolute, so that a bare name means the file here, not one on
-        // the PATH.
-        let path = std::fs::canonicalize(value)
-            .ok()
-            .filter(|p| p.is_file())
-            .ok_or_else(|| format!("--against {value}: no such file"))?;
-        against = Some(path);
-        args.drain(at..at + 2);
-    }
+    let runs = take(&mut args, "--runs", "a value")?
+        .map(|value| {
+            value
+                .parse::<usize>()
+                .ok()
+                .filter(|&n| n >= 1)
+                .ok_or_else(|| format!("--runs {value}: not a count of at least 1"))
+        })
+        .transpose()?
+        .unwrap_or(1);
+    // Absolute, so that a bare name means the file here, not one on the
+    // PATH.
+    let against = take(&mut args, "--against", "an xtask binary")?
+        .map(|value| {
+            std::fs::canonicalize(&value)
+                .ok()
+                .filter(|p| p.is_file())
+                .ok_or_else(|| format!("--against {value}: no such file"))
+        })
+        .transpose()?;
     let meshes: Vec<String> = if args.is_empty() {
         let bunny = super::workspace().join("../shared/models/stanford-bunny.obj");
         let mut m = Vec::new();
@@ -156,6 +148,18 @@ pub fn run(args: &[String]) -> Result<(), String> {
         print!("\n{ratios}");
     }
     Ok(())
+}
+
+/// Removes `flag` and the value after it from `args`, and returns that
+/// value; an error saying the flag needs `what` if nothing follows it.
+fn take(args: &mut Vec<String>, flag: &str, what: &str) -> Result<Option<String>, String> {
+    let Some(at) = args.iter().position(|a| a == flag) else {
+        return Ok(None);
+    };
+    if at + 1 >= args.len() {
+        return Err(format!("{flag} needs {what}"));
+    }
+    Ok(args.drain(at..at + 2).nth(1))
 }
 
 /// One remesh as a child reports it (its table row, parsed).
@@ -379,6 +383,20 @@ mod tests {
             assert_eq!((r.read_s, r.remesh_s), (0.013, 1.5));
             assert_eq!(r.peak_mb, peak_kb.map(|_| 334.0));
         }
+    }
+
+    #[test]
+    fn flags_take_their_values_out() {
+        let mut args: Vec<String> = ["a.obj", "--runs", "3", "b.obj", "--level"]
+            .map(String::from)
+            .to_vec();
+        assert_eq!(take(&mut args, "--against", "x"), Ok(None));
+        assert_eq!(take(&mut args, "--runs", "a value"), Ok(Some("3".into())));
+        assert_eq!(args, ["a.obj", "b.obj", "--level"]);
+        assert_eq!(
+            take(&mut args, "--level", "a value"),
+            Err("--level needs a value".into())
+        );
     }
 
     #[test]
