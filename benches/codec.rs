@@ -36,7 +36,7 @@ fn codec(c: &mut Criterion) {
     }
     group.finish();
 
-    let full = qm::compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
+    let full = qm::codec::compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
     let mut group = c.benchmark_group("codec");
     group
         .sample_size(10)
@@ -45,18 +45,18 @@ fn codec(c: &mut Criterion) {
     // the stream's cuts for holds; one fixed source without holds is a
     // single encoding.
     group.bench_function("encode/lossless", |b| {
-        b.iter(|| qm::compress(&mesh, &EncodeOptions::DEFAULT).unwrap())
+        b.iter(|| qm::codec::compress(&mesh, &EncodeOptions::DEFAULT).unwrap())
     });
     let no_holds = EncodeOptions::DEFAULT.with_holds(false);
     group.bench_function("encode/lossless-no-holds", |b| {
-        b.iter(|| qm::compress(&mesh, &no_holds).unwrap())
+        b.iter(|| qm::codec::compress(&mesh, &no_holds).unwrap())
     });
     let one_source = no_holds.with_frame_source(Frames::ParentsFrom(3));
     group.bench_function("encode/lossless-one-frame-source", |b| {
-        b.iter(|| qm::compress(&mesh, &one_source).unwrap())
+        b.iter(|| qm::codec::compress(&mesh, &one_source).unwrap())
     });
     group.bench_function("decode/lossless", |b| {
-        b.iter(|| qm::decompress(&full.bytes, &DecodeOptions::default()).unwrap())
+        b.iter(|| qm::codec::decompress(&full.bytes, &DecodeOptions::default()).unwrap())
     });
     // A prefix of about 1 byte per 20 samples: a typical streaming preview.
     for (name, bytes) in [
@@ -65,7 +65,7 @@ fn codec(c: &mut Criterion) {
     ] {
         let options = DecodeOptions::default().with_max_bytes(Some(bytes));
         group.bench_function(name, |b| {
-            b.iter(|| qm::decompress(&full.bytes, &options).unwrap())
+            b.iter(|| qm::codec::decompress(&full.bytes, &options).unwrap())
         });
     }
     group.finish();
@@ -82,7 +82,7 @@ fn codec(c: &mut Criterion) {
         b.iter(|| {
             for &cut in &cuts {
                 let options = DecodeOptions::default().with_max_bytes(Some(cut));
-                qm::decompress(&full.bytes, &options).unwrap();
+                qm::codec::decompress(&full.bytes, &options).unwrap();
             }
         })
     });

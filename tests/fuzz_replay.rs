@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use qm::io::mesh::{Format, read_mesh_bytes};
+use qm::io::{Format, read_mesh_bytes};
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -17,8 +17,8 @@ fn replay(target: &str, bytes: &[u8]) {
     match target {
         "decode" => {
             let limits = qm::Limits::DEFAULT.with_max_samples(1 << 20);
-            let _ = qm::io::container::read(bytes, &limits);
-            let _ = qm::decompress(bytes, &qm::DecodeOptions::default().with_limits(limits));
+            let _ = qm::codec::container::read(bytes, &limits);
+            let _ = qm::codec::decompress(bytes, &qm::DecodeOptions::default().with_limits(limits));
         }
         "obj" => format(Format::Obj),
         "ply" => format(Format::Ply),

@@ -232,20 +232,17 @@ fn crc32(data: &[u8]) -> u32 {
     !crc
 }
 
-/// A valid small `.qm`: the holed grid at 10 bits (under a kilobyte), a
-/// version 5 file with holds and neighbour contexts, so that corruptions
-/// reach the holds' reader and the neighbour-context decoder.
+/// A valid small `.qm`: the holed grid at 10 bits (under a kilobyte), with
+/// holds, so that corruptions reach the holds' reader.
 fn valid_qm() -> Vec<u8> {
-    let mesh = qm::read_mesh(&asset("quad/holed_grid_l4.obj")).unwrap();
+    let mesh = qm::read_mesh(asset("quad/holed_grid_l4.obj")).unwrap();
     let prepared = qm::detect(&mesh).unwrap();
     let options = qm::EncodeOptions::DEFAULT.with_bits(10);
-    let bytes = qm::compress(&prepared.mesh, &options).unwrap().bytes;
-    assert_eq!(bytes[4], 5, "a version 5 file");
-    let header = qm::io::container::read(&bytes, &qm::Limits::DEFAULT)
+    let bytes = qm::codec::compress(&prepared.mesh, &options).unwrap().bytes;
+    let header = qm::codec::container::read(&bytes, &qm::Limits::DEFAULT)
         .unwrap()
         .header;
     assert!(!header.holds.is_empty(), "with holds");
-    assert_ne!(header.flags & qm::io::container::NEIGHBOUR_CONTEXTS, 0);
     bytes
 }
 
@@ -336,14 +333,14 @@ fn test_limits() -> qm::Limits {
 fn random_corruptions_never_panic_the_library() {
     let valid = valid_qm();
     let options = qm::DecodeOptions::default().with_limits(test_limits());
-    assert!(qm::decompress(&valid, &options).is_ok());
+    assert!(qm::codec::decompress(&valid, &options).is_ok());
     let (mut ok, mut err, mut truncated) = (0, 0, 0);
     let mut panics = Vec::new();
     let mut slowest = Duration::ZERO;
     for seed in 0..1000u64 {
         let bytes = corrupt(&valid, seed);
         let start = Instant::now();
-        match catch_unwind(AssertUnwindSafe(|| qm::decompress(&bytes, &options))) {
+        match catch_unwind(AssertUnwindSafe(|| qm::codec::decompress(&bytes, &options))) {
             Ok(Ok(_)) => ok += 1,
             Ok(Err(e)) => {
                 err += 1;
@@ -433,15 +430,15 @@ proptest! {
     fn random_cubes_round_trip(level in 1u32..=3, bits in 8u32..=16, seed in any::<u64>()) {
         let mesh = random_cube(level, seed);
         let options = qm::EncodeOptions::DEFAULT.with_bits(bits);
-        let compressed = qm::compress(&mesh, &options).unwrap();
-        let full = qm::decompress(&compressed.bytes, &qm::DecodeOptions::default()).unwrap();
+        let compressed = qm::codec::compress(&mesh, &options).unwrap();
+        let full = qm::codec::decompress(&compressed.bytes, &qm::DecodeOptions::default()).unwrap();
         prop_assert_eq!(&full.values, &compressed.quantized);
         prop_assert!(!full.truncated);
         let start = compressed.header_bytes + compressed.base_bytes;
         let len = compressed.bytes.len();
         for k in 0..20 {
             let cut = start + (len - start) * k / 20;
-            let decoded = qm::decompress(&compressed.bytes[..cut], &qm::DecodeOptions::default());
+            let decoded = qm::codec::decompress(&compressed.bytes[..cut], &qm::DecodeOptions::default());
             prop_assert!(decoded.is_ok(), "cut {} of {}: {:?}", cut, len, decoded.err());
             prop_assert_eq!(decoded.unwrap().values.len(), compressed.quantized.len());
         }
@@ -468,7 +465,7 @@ fn messy_meshes_are_remeshed() {
             Duration::from_secs(10),
         );
         assert_eq!(run.code, Some(0), "{}: {}", case.file, run.stderr);
-        let back = qm::read_mesh(&dir.path().join("out.obj")).unwrap();
+        let back = qm::read_mesh(dir.path().join("out.obj")).unwrap();
         assert!(
             back.all_faces_have(4) && back.face_count() > 0,
             "{}",

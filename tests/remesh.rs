@@ -58,7 +58,7 @@ fn torus(n: u32, m: u32) -> PolyMesh {
 
 #[test]
 fn closed_genus_0_stays_closed_without_duplicate_vertices() {
-    let input = qm::read_mesh(&asset("spot.obj")).unwrap();
+    let input = qm::read_mesh(asset("spot.obj")).unwrap();
     let out = remeshed(&input);
     assert_eq!(
         topology(&out),

@@ -4,5 +4,5 @@
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    let _ = qm::io::mesh::read_mesh_bytes(data, qm::io::mesh::Format::Ply, "fuzz");
+    let _ = qm::io::read_mesh_bytes(data, qm::io::Format::Ply, "fuzz");
 });

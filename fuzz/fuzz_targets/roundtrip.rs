@@ -62,12 +62,12 @@ fuzz_target!(|data: &[u8]| {
             // Parents from level 3, 4 or 5 (above the level: never).
             k => Frames::ParentsFrom(u32::from(k) + 1 + u32::from(byte(3) & 0x20 != 0)),
         });
-    let compressed = match qm::compress(&mesh, &options) {
+    let compressed = match qm::codec::compress(&mesh, &options) {
         Ok(c) => c,
         // Refusing a degenerate mesh is allowed; panicking is not.
         Err(_) => return,
     };
-    let decoded = qm::decompress(&compressed.bytes, &DecodeOptions::default())
+    let decoded = qm::codec::decompress(&compressed.bytes, &DecodeOptions::default())
         .expect("the full stream decodes");
     assert!(!decoded.truncated, "the full stream is not truncated");
     assert_eq!(
@@ -80,5 +80,5 @@ fuzz_target!(|data: &[u8]| {
     );
 
     let cut = prefix % (compressed.bytes.len() + 1);
-    let _ = qm::decompress(&compressed.bytes[..cut], &DecodeOptions::default());
+    let _ = qm::codec::decompress(&compressed.bytes[..cut], &DecodeOptions::default());
 });

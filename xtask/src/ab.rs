@@ -16,10 +16,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use indicatif::{ProgressBar, ProgressStyle};
-use qm::{
-    BasePlacement, Contexts, DecodeOptions, EncodeOptions, Frames, RemeshOptions, UpdateRule,
-    Weighting,
-};
+use qm::{DecodeOptions, EncodeOptions, Frames, RemeshOptions, UpdateRule, Weighting};
 
 use crate::rd::{self, AtPsnr, bytes_at};
 
@@ -40,9 +37,9 @@ const CUTS: std::ops::RangeInclusive<usize> = 5..=1000;
 const USAGE: &str = "usage: cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--cuts N] [--out FILE]\n  \
     SPEC: comma-separated frames=auto|off|LEVEL, normal=BITS, weight=BITS, update=none|paper|mean,\n  \
     remesh=normal|plain (with or without the remesher's normal placement),\n  \
-    level=L (remesh level), spv=N (remesh samples per input vertex), base=front|stream,\n  \
-    holds=on|off, contexts=tree|neighbours\n  \
-    (A defaults to frames=off,normal=0,contexts=tree, the version 1 coding; B to the defaults)";
+    level=L (remesh level), spv=N (remesh samples per input vertex),\n  \
+    holds=on|off\n  \
+    (A defaults to frames=off,normal=0, world axes; B to the defaults)";
 
 /// Parses a setting list into encoder and remesher options.
 fn options(spec: &str) -> Result<(EncodeOptions, RemeshOptions), String> {
@@ -92,20 +89,10 @@ fn options(spec: &str) -> Result<(EncodeOptions, RemeshOptions), String> {
                 r = r.with_samples_per_vertex(f64::from(number()?));
                 o
             }
-            "base" => o.with_base(match value {
-                "front" => BasePlacement::Front,
-                "stream" => BasePlacement::Stream,
-                _ => return Err(format!("{item}: front or stream")),
-            }),
             "holds" => o.with_holds(match value {
                 "on" => true,
                 "off" => false,
                 _ => return Err(format!("{item}: on or off")),
-            }),
-            "contexts" => o.with_contexts(match value {
-                "tree" => Contexts::Tree,
-                "neighbours" => Contexts::Neighbours,
-                _ => return Err(format!("{item}: tree or neighbours")),
             }),
             _ => return Err(format!("{item}: unknown setting\n{USAGE}")),
         };
@@ -115,7 +102,7 @@ fn options(spec: &str) -> Result<(EncodeOptions, RemeshOptions), String> {
 
 pub fn run(args: &[String]) -> Result<(), String> {
     let mut models = Vec::new();
-    let mut a = "frames=off,normal=0,contexts=tree".to_string();
+    let mut a = "frames=off,normal=0".to_string();
     let mut b = String::new();
     let mut out = None;
     let mut cuts = BUDGETS;
@@ -203,9 +190,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
             (&oa, &prepared_a),
             (&ob, prepared_b.as_ref().unwrap_or(&prepared_a)),
         ] {
-            streams.push(
-                qm::compress_against(&prepared.mesh, &input, o).map_err(|e| at(e.to_string()))?,
-            );
+            streams.push(qm::encode_prepared(prepared, &input, o).map_err(|e| at(e.to_string()))?);
             // How far the semi-regular mesh itself is from the input.
             let layout = prepared.mesh.layout();
             let remeshed = qm::PolyMesh::from_faces(
@@ -216,7 +201,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
         }
         // One grid of budgets for both streams, so that interpolating
         // between its points errs alike on both curves.
-        let first = |c: &qm::Compressed| c.header_bytes + c.base_bytes;
+        let first = |c: &qm::Encoded| c.header_bytes + c.base_bytes;
         let grid = rd::budgets(
             streams.iter().map(first).min().unwrap_or(0),
             streams.iter().map(|c| c.bytes.len()).max().unwrap_or(0),
@@ -231,12 +216,12 @@ pub fn run(args: &[String]) -> Result<(), String> {
                 .chain([c.bytes.len()]);
             for bytes in budgets {
                 bar.set_message(format!("{name}: {label} {bytes} B"));
-                let d = qm::decompress(
+                let d = qm::decode(
                     &c.bytes,
                     &DecodeOptions::default().with_max_bytes(Some(bytes)),
                 )
                 .map_err(|e| at(e.to_string()))?;
-                let report = rd::measure(&input, &d.to_polymesh()).map_err(at)?;
+                let report = rd::measure(&input, &d.mesh).map_err(at)?;
                 curve.push((bytes, report.psnr_db));
                 bar.inc(1);
             }

@@ -64,7 +64,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
         let prepared =
             qm::prepare(&input, &RemeshOptions::DEFAULT).map_err(|e| at(e.to_string()))?;
         let options = EncodeOptions::DEFAULT;
-        let c = qm::compress(&prepared.mesh, &options).map_err(|e| at(e.to_string()))?;
+        let c = qm::codec::compress(&prepared.mesh, &options).map_err(|e| at(e.to_string()))?;
         let decoder = Decoder::new(&c.bytes, &Limits::NONE).map_err(|e| at(e.to_string()))?;
         let header = decoder.header();
         let layout = prepared.mesh.layout();
@@ -90,9 +90,9 @@ pub fn run(args: &[String]) -> Result<(), String> {
         // PSNR after each pass until the last target is passed.
         let mut psnr = Vec::new();
         for p in 1..=budgets.len() as u32 {
-            let d = qm::decompress(&c.bytes, &DecodeOptions::default().with_passes(Some(p)))
+            let d = qm::decode(&c.bytes, &DecodeOptions::default().with_passes(Some(p)))
                 .map_err(|e| at(e.to_string()))?;
-            let db = rd::measure(&input, &d.to_polymesh()).map_err(at)?.psnr_db;
+            let db = rd::measure(&input, &d.mesh).map_err(at)?.psnr_db;
             psnr.push(db);
             if targets.iter().all(|&t| db > t + 3.0) {
                 break;

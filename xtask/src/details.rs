@@ -50,7 +50,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
                 .map_err(|e| at(e.to_string()))?
                 .psnr_db;
             let encoder = EncodeOptions::DEFAULT;
-            let lossless = qm::compress(&r.mesh, &encoder)
+            let lossless = qm::codec::compress(&r.mesh, &encoder)
                 .map_err(|e| at(e.to_string()))?
                 .bytes
                 .len();

@@ -25,6 +25,8 @@
 //! - `budget [--models FILE|DIR ...] [--db DB ...]`: bits by symbol class
 //!   at the passes closest to each PSNR (default 65 and 78 dB). See
 //!   [`budget`].
+//! - `corpus`: writes the malformed `.qm` files of `tests/corrupt/` anew
+//!   from one valid stream and prints their table rows. See [`corpus`].
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -33,6 +35,7 @@ use qm::{DecodeOptions, EncodeOptions};
 
 mod ab;
 mod budget;
+mod corpus;
 mod details;
 mod plot;
 mod rd;
@@ -49,12 +52,14 @@ fn main() -> ExitCode {
         Some("ab") => ab::run(&args[1..]),
         Some("details") => details::run(&args[1..]),
         Some("budget") => budget::run(&args[1..]),
+        Some("corpus") => corpus::run(&args[1..]),
         _ => Err("usage: cargo xtask pass-table [MESH ...]\n       \
                   cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]\n       \
                   cargo xtask remesh-bench [--level L] [--normal-remesh on|off] [--runs N] [--against XTASK] [MESH ...]\n       \
                   cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--cuts N] [--out FILE]\n       \
                   cargo xtask details [FILE|DIR ...]\n       \
-                  cargo xtask budget [--models FILE|DIR ...] [--db DB ...]"
+                  cargo xtask budget [--models FILE|DIR ...] [--db DB ...]\n       \
+                  cargo xtask corpus"
             .to_string()),
     };
     match result {
@@ -103,11 +108,12 @@ fn pass_table(args: &[String]) -> Result<(), String> {
             .collect();
         let (lo, hi) = qm::lift::bounding_box(&original);
         let diagonal = (hi - lo).length();
-        let compressed =
-            qm::compress(&prepared.mesh, &EncodeOptions::DEFAULT).map_err(|e| e.to_string())?;
+        let compressed = qm::codec::compress(&prepared.mesh, &EncodeOptions::DEFAULT)
+            .map_err(|e| e.to_string())?;
         let input_bytes = std::fs::metadata(&file).map_err(|e| e.to_string())?.len();
         let psnr = |options: DecodeOptions| -> Result<f64, String> {
-            let decoded = qm::decompress(&compressed.bytes, &options).map_err(|e| e.to_string())?;
+            let decoded =
+                qm::codec::decompress(&compressed.bytes, &options).map_err(|e| e.to_string())?;
             let sum: f64 = original
                 .iter()
                 .enumerate()

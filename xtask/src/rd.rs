@@ -95,7 +95,7 @@ impl ModelResult {
     pub fn largest_fall(&self) -> f64 {
         let held = |bytes: usize| {
             let n = bytes.saturating_sub(self.header_base_bytes);
-            qm::io::container::hold_cut(&self.holds, n) < n
+            qm::codec::container::hold_cut(&self.holds, n) < n
         };
         let mut prefixes: Vec<(usize, f64)> = (self.points.iter())
             .filter(|p| p.coder == "qm" && !(p.setting.starts_with("passes=") && held(p.bytes)))
@@ -374,7 +374,7 @@ fn model(file: &Path, draco: Option<&Draco>, bar: &ProgressBar) -> Result<ModelR
     let prepared = qm::prepare(&input, &RemeshOptions::DEFAULT).map_err(|e| at(e.to_string()))?;
     let prepare_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let compressed = qm::compress_against(&prepared.mesh, &input, &EncodeOptions::DEFAULT)
+    let compressed = qm::encode_prepared(&prepared, &input, &EncodeOptions::DEFAULT)
         .map_err(|e| at(e.to_string()))?;
     let encode_s = t.elapsed().as_secs_f64();
     bar.inc(1);
@@ -384,9 +384,9 @@ fn model(file: &Path, draco: Option<&Draco>, bar: &ProgressBar) -> Result<ModelR
     let mut points = Vec::new();
     let mut decode = |setting: String, options: DecodeOptions, bytes: usize| {
         let t = Instant::now();
-        let decoded = qm::decompress(&compressed.bytes, &options).map_err(|e| at(e.to_string()))?;
+        let decoded = qm::decode(&compressed.bytes, &options).map_err(|e| at(e.to_string()))?;
         let decode_s = t.elapsed().as_secs_f64();
-        let report = measure(&input, &decoded.to_polymesh()).map_err(at)?;
+        let report = measure(&input, &decoded.mesh).map_err(at)?;
         points.push(Point {
             coder: "qm",
             setting,
@@ -449,7 +449,7 @@ fn model(file: &Path, draco: Option<&Draco>, bar: &ProgressBar) -> Result<ModelR
         header_base_bytes: first,
         full_bytes: full,
         passes,
-        holds: qm::io::container::read(&compressed.bytes, &qm::Limits::NONE)
+        holds: qm::codec::container::read(&compressed.bytes, &qm::Limits::NONE)
             .map_err(|e| at(e.to_string()))?
             .header
             .holds,
@@ -511,7 +511,7 @@ fn run_draco(
         )?;
         let decode_s = t.elapsed().as_secs_f64();
         let bytes = std::fs::metadata(&drc).map_err(|e| e.to_string())?.len() as usize;
-        let recon = qm::read_mesh(&out).map_err(|e| e.to_string())?;
+        let recon = qm::read_mesh(out).map_err(|e| e.to_string())?;
         let report = measure(input, &recon)?;
         points.push(Point {
             coder: "draco",

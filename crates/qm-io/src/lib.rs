@@ -1,29 +1,621 @@
-//! The `.qm` container, the codec driver, and mesh file input/output.
+//! Mesh types and mesh files, the bottom of qm's ladder: [`PolyMesh`], and
+//! readers and writers for OBJ, PLY, OFF and STL in, OBJ and PLY out.
 //!
-//! [`compress`] turns a [`qm_lift::SemiRegularMesh`] into the bytes of a `.qm`
-//! file (header, base mesh, embedded stream; see [`container`]) and
-//! [`decompress`] turns any prefix of those bytes that contains the base mesh
-//! back into a mesh. [`mesh`] reads and writes OBJ, PLY, OFF and STL files
-//! into [`PolyMesh`].
+//! [`read_mesh`] picks the format by extension ([`Format::from_path`]) and, for
+//! an unknown extension, by content; [`read_mesh_bytes`] reads from memory (for
+//! tests and fuzzing). [`write_mesh`] writes OBJ or PLY atomically (a temporary
+//! file in the target's directory, then a rename), [`write_mesh_to`] writes to
+//! any [`std::io::Write`].
 //!
-//! Main types: [`EncodeOptions`], [`Compressed`], [`DecodeOptions`],
-//! [`Decompressed`], [`container::Header`], [`PolyMesh`], [`Error`].
+//! What is kept: vertex positions in file order (unreferenced vertices too) and
+//! faces as polygons with their corner order (quads stay quads). Everything
+//! else (normals, texture coordinates, colours, groups, materials, lines,
+//! points) is ignored. Degenerate faces are kept as written; only triangle
+//! strips drop the triangles with a repeated corner, as strips use them as
+//! padding.
+//!
+//! Input is treated as hostile: every reader returns a [`MeshError`] naming the
+//! file and, for text formats, the line, and never panics. Counts declared in a
+//! header are checked against the bytes that follow before anything is
+//! allocated for them.
+//!
+//! Which code reads what:
+//! - PLY: `ply-rs-bw` parses the header and decodes each record (ASCII, binary
+//!   little and big endian); this module drives it record by record so that a
+//!   bad face fails at once and a line number is known.
+//! - STL: `stl_io` (ASCII and binary, merging bit-identical positions). It tells
+//!   ASCII from binary by a leading `solid `, which binary files exported by
+//!   some CAD tools also start with; the size check (84 + 50 bytes a triangle)
+//!   decides first here.
+//! - OFF: hand-written; no maintained crate reads it.
+//! - OBJ: hand-written, although `tobj` 4 was the plan, because for a mesh codec
+//!   `tobj` changes the mesh: with `single_index: false` every object, group and
+//!   material section is renumbered on its own in order of first use, so
+//!   vertices shared between two groups are duplicated (a connected surface
+//!   falls apart along group borders), unreferenced vertices vanish and vertex
+//!   order changes; it parses `l` polylines as faces; it silently drops a face
+//!   of two corners instead of reporting it; its errors carry no line number;
+//!   it reads `f32` unless a feature is set; and a texture index far below zero
+//!   (`f 1/-5000000000000000000 ...`) overflows its index arithmetic, a panic in
+//!   debug builds. Positions and faces are the easy part of OBJ, so reading them
+//!   directly costs less than repairing all of that.
 
-mod basecode;
-mod codec;
-pub mod container;
 mod error;
-pub mod holds;
-pub mod mesh;
+mod obj;
+mod off;
+mod ply;
 mod polymesh;
+mod stl;
 
-pub use codec::{
-    AUTO_CUTS, AUTO_MIN_GAIN_DB, BasePlacement, Compressed, DecodeOptions, DecodeStatus, Decoder,
-    Decompressed, EncodeOptions, Frames, compress, compress_probed, decompress,
-};
-pub use container::Limits;
-pub use error::{Error, Result};
-pub use holds::Probes;
+use std::fmt;
+use std::fs;
+use std::io::{self, BufWriter, Write};
+use std::path::Path;
+
+use glam::DVec3;
+
+pub use error::{MeshError, Problem};
+pub use glam;
 pub use polymesh::PolyMesh;
-pub use qm_ezw::{self, Contexts, Weighting};
-pub use qm_lift::{self, UpdateRule};
+
+/// A mesh file format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Format {
+    /// Wavefront OBJ (text).
+    Obj,
+    /// Stanford PLY (ASCII or binary).
+    Ply,
+    /// Object File Format (text).
+    Off,
+    /// Stereolithography (ASCII or binary); read only.
+    Stl,
+}
+
+impl Format {
+    /// The format named by a path's extension, ignoring case.
+    pub fn from_path(path: &Path) -> Option<Format> {
+        let extension = path.extension()?.to_str()?.to_ascii_lowercase();
+        match extension.as_str() {
+            "obj" => Some(Format::Obj),
+            "ply" => Some(Format::Ply),
+            "off" => Some(Format::Off),
+            "stl" => Some(Format::Stl),
+            _ => None,
+        }
+    }
+
+    /// Guesses the format from a file's first bytes, for files whose extension
+    /// says nothing. `None` when the content looks like no mesh format.
+    pub fn sniff(bytes: &[u8]) -> Option<Format> {
+        if bytes.starts_with(b"ply\n") || bytes.starts_with(b"ply\r\n") {
+            return Some(Format::Ply);
+        }
+        // The size test comes before the text tests because binary STL headers
+        // may begin with "solid" too.
+        if stl::is_binary(bytes) {
+            return Some(Format::Stl);
+        }
+        // A first line that is not text (a Latin-1 comment, say) still may
+        // start an OBJ file.
+        let text = first_line_text(bytes).unwrap_or("");
+        if off::is_header_keyword(text.split_ascii_whitespace().next().unwrap_or("")) {
+            return Some(Format::Off);
+        }
+        if text.trim_start().starts_with("solid") {
+            return Some(Format::Stl);
+        }
+        if obj::looks_like_obj(bytes) {
+            return Some(Format::Obj);
+        }
+        None
+    }
+}
+
+impl fmt::Display for Format {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Format::Obj => "OBJ",
+            Format::Ply => "PLY",
+            Format::Off => "OFF",
+            Format::Stl => "STL",
+        })
+    }
+}
+
+/// Reads a mesh file, choosing the format by extension or, for an unknown
+/// extension, by content.
+pub fn read_mesh(path: &Path) -> Result<PolyMesh, MeshError> {
+    let file = path.display().to_string();
+    let bytes = fs::read(path).map_err(|e| MeshError::io(&file, e))?;
+    if bytes.is_empty() {
+        return Err(MeshError::malformed(&file, None, Problem::Empty));
+    }
+    let format = match Format::from_path(path) {
+        Some(format) => format,
+        None => Format::sniff(&bytes).ok_or(MeshError::UnknownFormat { file: file.clone() })?,
+    };
+    read_mesh_bytes(&bytes, format, &file)
+}
+
+/// Reads a mesh in `format` from memory; `name` stands for the file in errors.
+pub fn read_mesh_bytes(bytes: &[u8], format: Format, name: &str) -> Result<PolyMesh, MeshError> {
+    if bytes.is_empty() {
+        return Err(MeshError::malformed(name, None, Problem::Empty));
+    }
+    match format {
+        Format::Obj => obj::read(bytes, name),
+        Format::Ply => ply::read(bytes, name),
+        Format::Off => off::read(bytes, name),
+        Format::Stl => stl::read(bytes, name),
+    }
+}
+
+/// Writes `mesh` as OBJ or PLY (by extension) without ever leaving a partial
+/// file: the data goes to a temporary file in the same directory, which then
+/// replaces `path` by a rename. On any error `path` is untouched.
+pub fn write_mesh(path: &Path, mesh: &PolyMesh) -> Result<(), MeshError> {
+    let file = path.display().to_string();
+    let format = Format::from_path(path).ok_or(MeshError::UnknownFormat { file: file.clone() })?;
+    // Checked before touching the disk, so a refused mesh costs no temporary file.
+    check_writable(mesh, format, &file)?;
+    write_atomic(path, |w| write_unchecked(w, format, mesh)).map_err(|e| MeshError::io(&file, e))
+}
+
+/// Writes a file without ever leaving a partial one: `write` fills a
+/// temporary file in the same directory, which is synced and then renamed
+/// over `path`. The file gets the mode of the file it replaces, or the usual
+/// mode of a new file. On any error `path` is untouched.
+pub fn write_atomic(
+    path: &Path,
+    write: impl FnOnce(&mut fs::File) -> io::Result<()>,
+) -> io::Result<()> {
+    let dir = match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => dir,
+        _ => Path::new("."),
+    };
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".qm-").suffix(".tmp");
+    // tempfile creates files readable by the owner only.
+    let permissions = match fs::metadata(path) {
+        Ok(meta) => Some(meta.permissions()),
+        Err(_) => default_permissions(),
+    };
+    if let Some(permissions) = permissions {
+        builder.permissions(permissions);
+    }
+    let mut temp = builder.tempfile_in(dir)?;
+    write(temp.as_file_mut())?;
+    // Without the sync a crash soon after the rename could leave an empty file
+    // where the old one was.
+    temp.as_file().sync_all()?;
+    temp.persist(path).map_err(|e| e.error)?;
+    Ok(())
+}
+
+/// Writes `mesh` as OBJ or PLY to `w`.
+pub fn write_mesh_to(w: &mut impl Write, format: Format, mesh: &PolyMesh) -> Result<(), MeshError> {
+    const NAME: &str = "<output>";
+    check_writable(mesh, format, NAME)?;
+    write_unchecked(w, format, mesh).map_err(|e| MeshError::io(NAME, e))
+}
+
+#[cfg(unix)]
+fn default_permissions() -> Option<fs::Permissions> {
+    use std::os::unix::fs::PermissionsExt;
+    // The process umask still applies, as for any newly created file.
+    Some(fs::Permissions::from_mode(0o666))
+}
+
+#[cfg(not(unix))]
+fn default_permissions() -> Option<fs::Permissions> {
+    None
+}
+
+fn write_unchecked(w: &mut impl Write, format: Format, mesh: &PolyMesh) -> io::Result<()> {
+    let mut w = BufWriter::new(w);
+    match format {
+        Format::Obj => obj::write(&mut w, mesh)?,
+        Format::Ply => ply::write(&mut w, mesh)?,
+        Format::Off | Format::Stl => unreachable!("check_writable refuses {format}"),
+    }
+    w.flush()
+}
+
+/// Refuses what the readers would refuse, so every written file reads back.
+fn check_writable(mesh: &PolyMesh, format: Format, file: &str) -> Result<(), MeshError> {
+    let invalid = |problem| MeshError::InvalidMesh {
+        file: file.to_owned(),
+        problem,
+    };
+    let max_corners = match format {
+        Format::Obj => usize::MAX,
+        Format::Ply => ply::MAX_WRITTEN_CORNERS,
+        Format::Off | Format::Stl => {
+            return Err(MeshError::UnsupportedOutput {
+                file: file.to_owned(),
+                format,
+            });
+        }
+    };
+    let vertices = mesh.positions.len();
+    if vertices == 0 {
+        return Err(invalid(Problem::NoVertices));
+    }
+    if mesh.face_count() == 0 {
+        return Err(invalid(Problem::NoFaces));
+    }
+    let max_vertices = if format == Format::Ply {
+        ply::MAX_WRITTEN_VERTICES as u64
+    } else {
+        MAX_VERTICES
+    };
+    if vertices as u64 > max_vertices {
+        return Err(invalid(Problem::TooMany {
+            what: "vertices",
+            count: vertices as u64,
+            max: max_vertices,
+        }));
+    }
+    if let Some(vertex) = mesh.positions.iter().position(|p| !p.is_finite()) {
+        return Err(invalid(Problem::NonFiniteCoordinate { vertex }));
+    }
+    for face in mesh.faces() {
+        if face.len() < 3 {
+            return Err(invalid(Problem::TooFewCorners {
+                corners: face.len(),
+            }));
+        }
+        if face.len() > max_corners {
+            return Err(invalid(Problem::TooManyCorners {
+                corners: face.len(),
+                max: max_corners,
+            }));
+        }
+        if let Some(&index) = face.iter().find(|&&i| i as usize >= vertices) {
+            return Err(invalid(Problem::IndexOutOfRange {
+                index: index.into(),
+                vertices,
+            }));
+        }
+    }
+    Ok(())
+}
+
+/// The most vertices a mesh may have: indices are `u32`. (A `u64`, so that
+/// the comparisons mean something on 32-bit targets too.)
+const MAX_VERTICES: u64 = u32::MAX as u64;
+
+/// Collects a mesh while enforcing the limits of [`PolyMesh`]'s `u32` indices
+/// and offsets, and at the end that there is something to code.
+struct MeshBuilder {
+    mesh: PolyMesh,
+    corners: usize,
+}
+
+impl MeshBuilder {
+    /// `expected_vertices` must already be bounded by the input size.
+    fn with_capacity(expected_vertices: usize) -> Self {
+        let mut mesh = PolyMesh::new();
+        mesh.positions.reserve(expected_vertices);
+        MeshBuilder { mesh, corners: 0 }
+    }
+
+    fn vertex_count(&self) -> usize {
+        self.mesh.positions.len()
+    }
+
+    fn push_position(&mut self, position: DVec3) -> Result<(), Problem> {
+        if !position.is_finite() {
+            return Err(Problem::NonFiniteCoordinate {
+                vertex: self.mesh.positions.len(),
+            });
+        }
+        if self.mesh.positions.len() as u64 >= MAX_VERTICES {
+            return Err(Problem::TooMany {
+                what: "vertices",
+                count: self.mesh.positions.len() as u64 + 1,
+                max: MAX_VERTICES,
+            });
+        }
+        self.mesh.positions.push(position);
+        Ok(())
+    }
+
+    /// Corner indices must already be checked against the vertex count.
+    fn push_face(&mut self, corners: &[u32]) -> Result<(), Problem> {
+        if corners.len() < 3 {
+            return Err(Problem::TooFewCorners {
+                corners: corners.len(),
+            });
+        }
+        self.corners += corners.len();
+        if self.corners > u32::MAX as usize {
+            return Err(Problem::TooMany {
+                what: "face corners",
+                count: self.corners as u64,
+                max: u32::MAX.into(),
+            });
+        }
+        self.mesh.push_face(corners);
+        Ok(())
+    }
+
+    fn finish(self) -> Result<PolyMesh, Problem> {
+        if self.mesh.positions.is_empty() {
+            Err(Problem::NoVertices)
+        } else if self.mesh.face_count() == 0 {
+            Err(Problem::NoFaces)
+        } else {
+            Ok(self.mesh)
+        }
+    }
+}
+
+/// The lines of a text file with their 1-based numbers, without `\n` or `\r\n`.
+fn numbered_lines(bytes: &[u8]) -> impl Iterator<Item = (usize, &[u8])> {
+    bytes
+        .split(|&b| b == b'\n')
+        .map(|line| line.strip_suffix(b"\r").unwrap_or(line))
+        .enumerate()
+        .map(|(k, line)| (k + 1, line))
+}
+
+/// A line without its `#` comment.
+fn strip_comment(line: &[u8]) -> &[u8] {
+    match line.iter().position(|&b| b == b'#') {
+        Some(end) => &line[..end],
+        None => line,
+    }
+}
+
+/// The first line as text, if the file starts with text at all.
+fn first_line_text(bytes: &[u8]) -> Option<&str> {
+    let line = numbered_lines(bytes)
+        .next()
+        .map_or(&[][..], |(_, line)| line);
+    std::str::from_utf8(line).ok()
+}
+
+/// Parses a coordinate; `None` for anything that is not a number.
+fn parse_f64(token: &str) -> Option<f64> {
+    token.parse().ok()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn quad_and_triangle() -> PolyMesh {
+        let positions = vec![
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(1.0, 1.0, 0.0),
+            DVec3::new(0.0, 1.0, 0.0),
+            DVec3::new(0.5, 0.5, 1.0 / 3.0),
+        ];
+        let mut mesh = PolyMesh::from_faces(positions, &[[0, 1, 2, 3]]);
+        mesh.push_face(&[1, 2, 4]);
+        mesh
+    }
+
+    /// Positions whose decimal forms are long or unusual, in a triangle, a
+    /// quad and a pentagon.
+    pub(super) fn awkward_mesh() -> PolyMesh {
+        let positions = vec![
+            DVec3::new(0.1, 0.2, 0.3),
+            DVec3::new(1.0 / 3.0, -2.0 / 7.0, std::f64::consts::PI),
+            DVec3::new(-0.0, 5e-324, 1e-300),
+            DVec3::new(f64::MAX, f64::MIN_POSITIVE, -1.797_693_134_862_315_7e308),
+            DVec3::new(123_456_789.123_456_79, -9.999_999_999_999_999e-5, 2.5),
+            DVec3::new(1e22, 0.300_000_000_000_000_04, 7.0),
+        ];
+        let mut mesh = PolyMesh::from_faces(positions, &[[0, 1, 2]]);
+        mesh.push_face(&[0, 2, 3, 4]);
+        mesh.push_face(&[1, 2, 3, 4, 5]);
+        mesh
+    }
+
+    /// Equal meshes whose coordinates also agree bit for bit (`==` would take
+    /// -0.0 for 0.0).
+    pub(super) fn assert_bit_exact(a: &PolyMesh, b: &PolyMesh) {
+        assert_eq!(a, b);
+        for (p, q) in a.positions.iter().zip(&b.positions) {
+            for k in 0..3 {
+                assert_eq!(p[k].to_bits(), q[k].to_bits(), "{p} vs {q}");
+            }
+        }
+    }
+
+    fn points(n: usize) -> PolyMesh {
+        let mut mesh = PolyMesh::new();
+        mesh.positions = vec![DVec3::ZERO; n];
+        mesh
+    }
+
+    #[test]
+    fn format_from_extension_ignores_case() {
+        assert_eq!(Format::from_path(Path::new("a/b.OBJ")), Some(Format::Obj));
+        assert_eq!(Format::from_path(Path::new("b.Ply")), Some(Format::Ply));
+        assert_eq!(Format::from_path(Path::new("b.off")), Some(Format::Off));
+        assert_eq!(Format::from_path(Path::new("b.stL")), Some(Format::Stl));
+        assert_eq!(Format::from_path(Path::new("b.mesh")), None);
+        assert_eq!(Format::from_path(Path::new("obj")), None);
+    }
+
+    #[test]
+    fn sniffing_tells_formats_apart() {
+        assert_eq!(Format::sniff(b"ply\nformat ascii 1.0\n"), Some(Format::Ply));
+        assert_eq!(Format::sniff(b"OFF\n3 1 0\n"), Some(Format::Off));
+        assert_eq!(Format::sniff(b"COFF\n3 1 0\n"), Some(Format::Off));
+        assert_eq!(
+            Format::sniff(b"solid x\nfacet normal 0 0 1\n"),
+            Some(Format::Stl)
+        );
+        assert_eq!(Format::sniff(b"# cube\nv 0 0 0\n"), Some(Format::Obj));
+        let mut binary_stl = b"solid but binary".to_vec();
+        binary_stl.resize(80, 0);
+        binary_stl.extend_from_slice(&1u32.to_le_bytes());
+        binary_stl.resize(84 + 50, 0);
+        assert_eq!(Format::sniff(&binary_stl), Some(Format::Stl));
+        assert_eq!(Format::sniff(b"hello world\n"), None);
+        assert_eq!(Format::sniff(&[0xff, 0xfe, 0x00, 0x12, 0x80]), None);
+    }
+
+    #[test]
+    fn read_mesh_sniffs_unknown_extension_and_refuses_garbage() {
+        let dir = tempfile::tempdir().unwrap();
+        let off = dir.path().join("mesh.dat");
+        fs::write(&off, "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n").unwrap();
+        assert_eq!(read_mesh(&off).unwrap().face_count(), 1);
+
+        let garbage = dir.path().join("noise.bin");
+        fs::write(&garbage, [0x00u8, 0x9f, 0x13, 0xff, 0x42]).unwrap();
+        let err = read_mesh(&garbage).unwrap_err();
+        assert!(matches!(err, MeshError::UnknownFormat { .. }), "{err}");
+        assert!(
+            err.to_string().contains("noise.bin: unknown mesh format"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn missing_file_is_an_io_error_naming_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("absent.obj");
+        let err = read_mesh(&path).unwrap_err();
+        assert!(matches!(err, MeshError::Io { .. }));
+        assert!(err.to_string().contains("absent.obj"), "{err}");
+        let source = std::error::Error::source(&err).expect("io error as source");
+        assert!(source.downcast_ref::<io::Error>().is_some());
+    }
+
+    #[test]
+    fn empty_file_is_reported_for_every_format() {
+        for format in [Format::Obj, Format::Ply, Format::Off, Format::Stl] {
+            let err = read_mesh_bytes(b"", format, "e").unwrap_err();
+            assert_eq!(err.problem(), Some(&Problem::Empty));
+            assert_eq!(err.to_string(), "e: file is empty");
+        }
+    }
+
+    #[test]
+    fn write_mesh_round_trips_through_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let mesh = quad_and_triangle();
+        for name in ["m.obj", "m.PLY"] {
+            let path = dir.path().join(name);
+            write_mesh(&path, &mesh).unwrap();
+            assert_eq!(read_mesh(&path).unwrap(), mesh, "{name}");
+        }
+        let left: Vec<_> = fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(left.len(), 2, "no temporary files left: {left:?}");
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn written_files_get_the_mode_of_ordinary_new_files() {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = |path: &Path| fs::metadata(path).unwrap().permissions().mode() & 0o777;
+        let dir = tempfile::tempdir().unwrap();
+        let reference = dir.path().join("plain.txt");
+        fs::write(&reference, "x").unwrap();
+        let path = dir.path().join("m.obj");
+        write_mesh(&path, &quad_and_triangle()).unwrap();
+        assert_eq!(mode(&path), mode(&reference));
+        // Replacing a file keeps its mode.
+        fs::set_permissions(&path, fs::Permissions::from_mode(0o640)).unwrap();
+        write_mesh(&path, &quad_and_triangle()).unwrap();
+        assert_eq!(mode(&path), 0o640);
+    }
+
+    #[test]
+    fn failed_write_leaves_the_old_file_untouched() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("keep.obj");
+        fs::write(&path, "old content").unwrap();
+        let mut bad = quad_and_triangle();
+        bad.positions[2].y = f64::NAN;
+        let err = write_mesh(&path, &bad).unwrap_err();
+        assert!(matches!(err, MeshError::InvalidMesh { .. }));
+        assert_eq!(
+            err.to_string(),
+            format!(
+                "{}: cannot write mesh: vertex 2 has a NaN or infinite coordinate",
+                path.display()
+            )
+        );
+        assert_eq!(fs::read_to_string(&path).unwrap(), "old content");
+        assert_eq!(
+            fs::read_dir(dir.path()).unwrap().count(),
+            1,
+            "no temporary file left"
+        );
+    }
+
+    #[test]
+    fn write_into_missing_directory_names_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("no/such/dir/m.ply");
+        let err = write_mesh(&path, &quad_and_triangle()).unwrap_err();
+        assert!(matches!(err, MeshError::Io { .. }));
+        assert!(err.to_string().contains("m.ply"), "{err}");
+    }
+
+    #[test]
+    fn off_and_stl_output_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        for name in ["m.off", "m.stl"] {
+            let err = write_mesh(&dir.path().join(name), &quad_and_triangle()).unwrap_err();
+            assert!(matches!(err, MeshError::UnsupportedOutput { .. }));
+            assert!(
+                err.to_string().contains("unsupported output format"),
+                "{err}"
+            );
+        }
+        let err = write_mesh(&dir.path().join("m.xyz"), &quad_and_triangle()).unwrap_err();
+        assert!(matches!(err, MeshError::UnknownFormat { .. }));
+        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+
+    #[test]
+    fn writers_refuse_meshes_the_readers_would_refuse() {
+        let mut out = Vec::new();
+        let cases: [(PolyMesh, Problem); 4] = [
+            (PolyMesh::new(), Problem::NoVertices),
+            (points(3), Problem::NoFaces),
+            (
+                PolyMesh::from_faces(vec![DVec3::ZERO; 3], &[[0, 1]]),
+                Problem::TooFewCorners { corners: 2 },
+            ),
+            (
+                PolyMesh::from_faces(vec![DVec3::ZERO; 3], &[[0, 1, 3]]),
+                Problem::IndexOutOfRange {
+                    index: 3,
+                    vertices: 3,
+                },
+            ),
+        ];
+        for (mesh, problem) in cases {
+            for format in [Format::Obj, Format::Ply] {
+                let err = write_mesh_to(&mut out, format, &mesh).unwrap_err();
+                assert_eq!(err.problem(), Some(&problem));
+            }
+        }
+        assert!(out.is_empty());
+        let big_face: Vec<u32> = (0..300).collect();
+        let mut mesh = points(300);
+        mesh.push_face(&big_face);
+        let err = write_mesh_to(&mut out, Format::Ply, &mesh).unwrap_err();
+        assert_eq!(
+            err.problem(),
+            Some(&Problem::TooManyCorners {
+                corners: 300,
+                max: 255
+            })
+        );
+        write_mesh_to(&mut out, Format::Obj, &mesh).unwrap();
+    }
+}

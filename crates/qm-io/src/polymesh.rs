@@ -1,6 +1,6 @@
 //! A plain indexed polygon mesh: what mesh files hold.
 
-use qm_lift::glam::DVec3;
+use glam::DVec3;
 
 /// Positions and polygonal faces (any number of corners each), as read from or
 /// written to a mesh file.

@@ -1578,7 +1578,7 @@ mod tests {
         }
         files.sort();
         for path in files {
-            let mesh = qm_io::mesh::read_mesh(&path).unwrap();
+            let mesh = qm_io::read_mesh(&path).unwrap();
             let start = std::time::Instant::now();
             let c = clean(&mesh).unwrap();
             let took = start.elapsed();

@@ -9,12 +9,12 @@
 //! the incremental decoder from scratch (header, base, layout, stream,
 //! lifting, vertex buffers and normals: what the WebAssembly build does per
 //! run of the page's benchmark); `baseMs`, the header and base section alone
-//! (the first picture); `decompressMs`, `qm_io::decompress` of the whole file.
+//! (the first picture); `decompressMs`, `qm_codec::decompress` of the whole file.
 
 use std::process::ExitCode;
 use std::time::Instant;
 
-use qm_io::{DecodeOptions, Decoder, Limits, decompress};
+use qm_codec::{DecodeOptions, Decoder, Limits, decompress};
 use qm_wasm::Incremental;
 
 fn median(mut xs: Vec<f64>) -> f64 {
@@ -64,7 +64,7 @@ fn main() -> ExitCode {
         base.push(time(&bytes[..start]).0);
         let t = Instant::now();
         let d = decompress(&bytes, &DecodeOptions::default()).expect("a valid file");
-        std::hint::black_box(d.to_polymesh());
+        std::hint::black_box(d.level_mesh());
         one_shot.push(t.elapsed().as_secs_f64() * 1e3);
     }
     let ms = median(full);

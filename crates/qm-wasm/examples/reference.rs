@@ -1,4 +1,4 @@
-//! What the one-shot native decoder (`qm_io::decompress`) makes of a file or
+//! What the one-shot native decoder (`qm_codec::decompress`) makes of a file or
 //! a prefix of it, for the browser test to compare the viewer against:
 //!
 //! ```sh
@@ -11,7 +11,7 @@
 
 use std::process::ExitCode;
 
-use qm_io::{DecodeOptions, decompress};
+use qm_codec::{DecodeOptions, decompress};
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();

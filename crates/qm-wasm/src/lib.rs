@@ -1,7 +1,7 @@
 //! An incremental `.qm` decoder for viewers that receive a file in pieces,
 //! compiled to WebAssembly for the browser viewer in `web/`.
 //!
-//! [`Incremental`] is a thin layer over [`qm_io::Decoder`]: bytes are pushed
+//! [`Incremental`] is a thin layer over [`qm_codec::Decoder`]: bytes are pushed
 //! as they arrive, the header and base mesh are parsed once as soon as they
 //! are complete, and [`Incremental::refine`] decodes the longest prefix
 //! received so far into a value buffer that is reused from one refinement to
@@ -11,7 +11,7 @@
 //!
 //! [`QmDecoder`] wraps it for JavaScript with `wasm-bindgen`.
 
-use qm_io::{DecodeStatus, Decoder, Limits};
+use qm_codec::{DecodeStatus, Decoder, Limits};
 use wasm_bindgen::prelude::*;
 
 /// The index buffers of one subdivision level, derived from the layout only.
@@ -24,7 +24,7 @@ struct LevelIndex {
 }
 
 impl LevelIndex {
-    fn new(layout: &qm_io::qm_lift::Layout, level: u32) -> Self {
+    fn new(layout: &qm_codec::qm_lift::Layout, level: u32) -> Self {
         let samples = layout.samples_at(level);
         let mut local = vec![u32::MAX; layout.sample_count()];
         for (i, &s) in samples.iter().enumerate() {
@@ -104,7 +104,7 @@ impl Incremental {
     /// base mesh are complete (so that [`Self::refine`] can show a mesh).
     /// A file that is not `.qm`, is corrupt or exceeds the limits is an
     /// error as soon as enough bytes arrived to tell.
-    pub fn push(&mut self, chunk: &[u8]) -> qm_io::Result<bool> {
+    pub fn push(&mut self, chunk: &[u8]) -> qm_codec::Result<bool> {
         self.bytes.extend_from_slice(chunk);
         if self.decoder.is_none() {
             match Decoder::new(&self.bytes, &self.limits) {
@@ -162,9 +162,9 @@ impl Incremental {
     /// changed since the last refinement (no new bytes, same level) and
     /// nothing was done, and `Ok(true)` when the buffers were rebuilt; an
     /// error only before the base mesh is complete.
-    pub fn refine(&mut self, level: Option<u32>) -> qm_io::Result<bool> {
+    pub fn refine(&mut self, level: Option<u32>) -> qm_codec::Result<bool> {
         let Some(decoder) = &self.decoder else {
-            return Err(qm_io::Error::Truncated {
+            return Err(qm_codec::Error::Truncated {
                 needed: self.bytes.len() + 1,
                 available: self.bytes.len(),
             });
@@ -199,7 +199,7 @@ impl Incremental {
 
     /// The mesh of everything received so far at `level` (default: the
     /// finest): [`Self::refine`], then a view of the buffers.
-    pub fn mesh(&mut self, level: Option<u32>) -> qm_io::Result<MeshView<'_>> {
+    pub fn mesh(&mut self, level: Option<u32>) -> qm_codec::Result<MeshView<'_>> {
         self.refine(level)?;
         let status = self.status.expect("set by refine");
         Ok(MeshView {
@@ -294,7 +294,7 @@ pub fn mesh_checksum(values: impl Iterator<Item = [i32; 3]>, triangles: &[u32]) 
 
 /// [`mesh_checksum`] of a one-shot native decode (each quad split along its
 /// first diagonal, as the viewer does), with its vertex and triangle counts.
-pub fn decompressed_checksum(d: &qm_io::Decompressed) -> (u64, usize, usize) {
+pub fn decompressed_checksum(d: &qm_codec::Decompressed) -> (u64, usize, usize) {
     let samples = d.layout.samples_at(d.level);
     let mut local = vec![u32::MAX; d.layout.sample_count()];
     for (i, &s) in samples.iter().enumerate() {
@@ -481,8 +481,8 @@ impl QmDecoder {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use qm_io::qm_lift::synthetic::bumpy_sphere;
-    use qm_io::{DecodeOptions, EncodeOptions, compress, decompress};
+    use qm_codec::qm_lift::synthetic::bumpy_sphere;
+    use qm_codec::{DecodeOptions, EncodeOptions, compress, decompress};
 
     /// What the one-shot native decoder makes of the first `n` bytes.
     fn native(bytes: &[u8], n: usize, level: Option<u32>) -> (u64, usize, u32) {
@@ -538,9 +538,9 @@ mod tests {
         let full = decompress(&bytes, &DecodeOptions::default()).unwrap();
         assert_eq!(status.passes, full.passes);
         // The final positions are the native decoder's, rounded to f32.
-        let poly = full.to_polymesh();
-        assert_eq!(poly.positions.len(), inc.vertex_count());
-        for (p, q) in poly.positions.iter().zip(inc.positions().chunks_exact(3)) {
+        let (positions, _) = full.level_mesh();
+        assert_eq!(positions.len(), inc.vertex_count());
+        for (p, q) in positions.iter().zip(inc.positions().chunks_exact(3)) {
             assert_eq!([p.x as f32, p.y as f32, p.z as f32], [q[0], q[1], q[2]]);
         }
     }

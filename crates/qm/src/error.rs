@@ -1,57 +1,28 @@
 //! Errors of the facade: those of the layers below, kept typed.
 
-use std::fmt;
+use thiserror::Error as ThisError;
 
-/// Any error of qm.
-#[derive(Debug)]
+/// Any error of qm. Each variant is its layer's error, shown as that error
+/// alone (its message is not repeated by this wrapper).
+#[derive(Debug, ThisError)]
 #[non_exhaustive]
 pub enum Error {
-    /// Container, codec or mesh file error.
-    Io(qm_io::Error),
+    /// A mesh file could not be read or written.
+    #[error(transparent)]
+    Mesh(#[from] qm_io::MeshError),
     /// The input mesh could not be made semi-regular.
-    Param(qm_param::Error),
+    #[error(transparent)]
+    Param(#[from] qm_param::Error),
+    /// Container or codec error.
+    #[error(transparent)]
+    Codec(#[from] qm_codec::Error),
 }
 
 impl Error {
-    /// Whether the data simply ended too early.
+    /// Whether the data simply ended too early (inside the header or the
+    /// base mesh; a cut after the base mesh is not an error).
     pub fn is_truncated(&self) -> bool {
-        matches!(self, Error::Io(e) if e.is_truncated())
-    }
-}
-
-impl fmt::Display for Error {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Error::Io(e) => e.fmt(f),
-            Error::Param(e) => e.fmt(f),
-        }
-    }
-}
-
-impl std::error::Error for Error {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match self {
-            Error::Io(e) => Some(e),
-            Error::Param(e) => Some(e),
-        }
-    }
-}
-
-impl From<qm_io::Error> for Error {
-    fn from(e: qm_io::Error) -> Self {
-        Error::Io(e)
-    }
-}
-
-impl From<qm_param::Error> for Error {
-    fn from(e: qm_param::Error) -> Self {
-        Error::Param(e)
-    }
-}
-
-impl From<qm_io::mesh::MeshError> for Error {
-    fn from(e: qm_io::mesh::MeshError) -> Self {
-        Error::Io(e.into())
+        matches!(self, Error::Codec(e) if e.is_truncated())
     }
 }
 

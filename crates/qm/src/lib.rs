@@ -2,52 +2,151 @@
 //!
 //! A mesh goes in; an *embedded* bitstream comes out, and any prefix of that
 //! stream decodes to a crack-free mesh whose error falls as more bytes
-//! arrive. The pipeline is a ladder of crates, each usable alone:
+//! arrive.
+//!
+//! ```no_run
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let mesh = qm::read_mesh("model.obj")?;
+//! let encoded = qm::encode(&mesh, &qm::Options::default())?;
+//! // Any prefix after the base mesh decodes.
+//! let cut = &encoded.bytes[..encoded.bytes.len() / 2];
+//! let decoded = qm::decode(cut, &qm::DecodeOptions::default())?;
+//! qm::write_mesh("coarse.obj", &decoded.mesh)?;
+//! # Ok(()) }
+//! ```
+//!
+//! The pipeline is a one-way ladder of crates, each usable alone and
+//! re-exported here:
 //!
 //! | module | crate | owns |
 //! |---|---|---|
+//! | [`io`] | `qm-io` | [`PolyMesh`] and mesh files (OBJ, PLY, OFF, STL) |
 //! | [`lift`] | `qm-lift` | base quad meshes, sample layouts, quantization, the integer lifting transform |
 //! | [`tree`] | `qm-tree` | zerotrees over edge and face coefficients |
 //! | [`ezw`] | `qm-ezw` | bit-plane zerotree coding, the arithmetic coder |
-//! | [`io`] | `qm-io` | the `.qm` container, the codec driver, mesh files |
-//! | [`param`] | `qm-param` | input mesh to semi-regular mesh |
-//!
-//! ```no_run
-//! # fn main() -> qm::Result<()> {
-//! let mesh = qm::read_mesh("model.obj".as_ref())?;
-//! let prepared = qm::prepare(&mesh, &qm::RemeshOptions::DEFAULT)?;
-//! let compressed = qm::compress_against(&prepared.mesh, &mesh, &qm::EncodeOptions::DEFAULT)?;
-//! // Any prefix after the base mesh decodes.
-//! let cut = &compressed.bytes[..compressed.bytes.len() / 2];
-//! let decoded = qm::decompress(cut, &qm::DecodeOptions::default())?;
-//! qm::write_mesh("coarse.obj".as_ref(), &decoded.to_polymesh())?;
-//! # Ok(()) }
-//! ```
+//! | [`param`] | `qm-param` | input mesh to semi-regular mesh; surface distance |
+//! | [`codec`] | `qm-codec` | the `.qm` container, compress/decompress of a semi-regular mesh, the incremental [`Decoder`] |
+
+#[cfg(doctest)]
+#[doc = include_str!("../../../README.md")]
+pub struct ReadmeDoctests;
 
 mod error;
 
+use std::path::Path;
+
 pub use error::{Error, Result};
+pub use qm_codec as codec;
 pub use qm_ezw as ezw;
 pub use qm_io as io;
 pub use qm_lift as lift;
 pub use qm_param as param;
 pub use qm_tree as tree;
 
-pub use qm_io::{
-    BasePlacement, Compressed, Contexts, DecodeOptions, DecodeStatus, Decoder, Decompressed,
-    EncodeOptions, Frames, Limits, PolyMesh, UpdateRule, Weighting,
+pub use qm_codec::{
+    Contexts, DecodeOptions, DecodeStatus, Decoder, Decompressed, EncodeOptions, Frames, Limits,
+    UpdateRule, Weighting,
 };
+pub use qm_io::PolyMesh;
 pub use qm_lift::SemiRegularMesh;
 pub use qm_param::{Detected, RemeshOptions, RemeshReport, Remeshed};
 
-/// Reads a mesh file (OBJ, PLY, OFF or STL).
-pub fn read_mesh(path: &std::path::Path) -> Result<PolyMesh> {
-    Ok(qm_io::mesh::read_mesh(path)?)
+/// Reads a mesh file (OBJ, PLY, OFF or STL, by extension or content).
+pub fn read_mesh(path: impl AsRef<Path>) -> Result<PolyMesh> {
+    Ok(qm_io::read_mesh(path.as_ref())?)
 }
 
-/// Writes a mesh file (OBJ or PLY, by extension), atomically.
-pub fn write_mesh(path: &std::path::Path, mesh: &PolyMesh) -> Result<()> {
-    Ok(qm_io::mesh::write_mesh(path, mesh)?)
+/// Writes a mesh file (OBJ or PLY, by extension), atomically: a failure
+/// leaves no half-written file.
+pub fn write_mesh(path: impl AsRef<Path>, mesh: &PolyMesh) -> Result<()> {
+    Ok(qm_io::write_mesh(path.as_ref(), mesh)?)
+}
+
+/// Settings of [`encode`]: how to remesh and how to code.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[non_exhaustive]
+pub struct Options {
+    /// The remesher's settings (unused for a quad mesh that already has
+    /// subdivision connectivity).
+    pub remesh: RemeshOptions,
+    /// The encoder's settings.
+    pub encode: EncodeOptions,
+}
+
+impl Options {
+    /// These options with other remesher settings.
+    pub const fn with_remesh(mut self, remesh: RemeshOptions) -> Self {
+        self.remesh = remesh;
+        self
+    }
+
+    /// These options with other encoder settings.
+    pub const fn with_encode(mut self, encode: EncodeOptions) -> Self {
+        self.encode = encode;
+        self
+    }
+}
+
+/// A compressed mesh: the bytes of a `.qm` file and what went into them.
+#[derive(Clone, Debug)]
+#[non_exhaustive]
+pub struct Encoded {
+    /// The whole `.qm` file; any prefix of it past the base mesh decodes.
+    pub bytes: Vec<u8>,
+    /// Bytes of magic, version, header and its checksum.
+    pub header_bytes: usize,
+    /// Bytes of the base mesh section and its checksum.
+    pub base_bytes: usize,
+    /// File length at the end of each bit-plane pass.
+    pub pass_ends: Vec<usize>,
+    /// Samples of the semi-regular mesh that was coded (its finest level's
+    /// vertices).
+    pub samples: usize,
+    /// Its base quads.
+    pub base_quads: usize,
+    /// Its subdivision level.
+    pub level: u32,
+    /// For a remeshed input: what the remesher did.
+    pub remeshed: Option<RemeshReport>,
+}
+
+/// Compresses any mesh: a quad mesh with subdivision connectivity is coded
+/// as it is, anything else is remeshed first. The encoder's holds are
+/// measured against `mesh` itself.
+pub fn encode(mesh: &PolyMesh, options: &Options) -> Result<Encoded> {
+    let prepared = prepare(mesh, &options.remesh)?;
+    encode_prepared(&prepared, mesh, &options.encode)
+}
+
+/// A decoded `.qm` stream or prefix of one.
+#[derive(Clone, Debug)]
+#[non_exhaustive]
+pub struct Decoded {
+    /// The mesh at the decoded level (quads).
+    pub mesh: PolyMesh,
+    /// The subdivision level of [`Decoded::mesh`] (0 is the base mesh).
+    pub level: u32,
+    /// Bit-plane passes decoded.
+    pub passes: u32,
+    /// Whether the stream ended before its last pass.
+    pub truncated: bool,
+    /// Everything the decoder made: layout, quantized values, header, and
+    /// how many bytes of each section were there.
+    pub raw: Decompressed,
+}
+
+/// Decompresses `.qm` bytes; any cut after the base mesh is fine (a cut
+/// inside the header or the base mesh is [`Error::is_truncated`]).
+pub fn decode(bytes: &[u8], options: &DecodeOptions) -> Result<Decoded> {
+    let raw = qm_codec::decompress(bytes, options)?;
+    let (positions, quads) = raw.level_mesh();
+    Ok(Decoded {
+        mesh: PolyMesh::from_faces(positions, &quads),
+        level: raw.level,
+        passes: raw.passes,
+        truncated: raw.truncated,
+        raw,
+    })
 }
 
 /// Finds subdivision connectivity in a quad mesh (no remeshing).
@@ -60,8 +159,9 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     Ok(qm_param::remesh(mesh, options)?)
 }
 
-/// An input mesh made semi-regular.
+/// An input mesh made semi-regular: the first half of [`encode`].
 #[derive(Clone, Debug)]
+#[non_exhaustive]
 pub struct Prepared {
     /// The semi-regular mesh to compress.
     pub mesh: SemiRegularMesh,
@@ -95,29 +195,30 @@ pub fn prepare(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Prepared> {
     })
 }
 
-/// Compresses a semi-regular mesh.
-pub fn compress(mesh: &SemiRegularMesh, options: &EncodeOptions) -> Result<Compressed> {
-    Ok(qm_io::compress(mesh, options)?)
-}
-
-/// [`compress`] for a semi-regular mesh made from `input` (by [`prepare`]):
-/// the encoder's holds are measured against `input`'s surface, the way
-/// `qm distance` measures, rather than against `mesh` (see
-/// [`io::holds`]).
-pub fn compress_against(
-    mesh: &SemiRegularMesh,
+/// The second half of [`encode`]: compresses `prepared`, made from `input`
+/// by [`prepare`]; the holds are measured against `input`'s surface, the way
+/// `qm distance` measures.
+pub fn encode_prepared(
+    prepared: &Prepared,
     input: &PolyMesh,
     options: &EncodeOptions,
-) -> Result<Compressed> {
-    if !options.holds {
-        return compress(mesh, options);
-    }
-    let surface = qm_param::distance::Surface::new(input)?;
-    let probes = qm_io::Probes::new(mesh, |p| surface.closest(p));
-    Ok(qm_io::compress_probed(mesh, options, Some(&probes))?)
-}
-
-/// Decompresses `.qm` bytes; any cut after the base mesh is fine.
-pub fn decompress(bytes: &[u8], options: &DecodeOptions) -> Result<Decompressed> {
-    Ok(qm_io::decompress(bytes, options)?)
+) -> Result<Encoded> {
+    let compressed = if options.holds {
+        let surface = qm_param::distance::Surface::new(input)?;
+        let probes = qm_codec::Probes::new(&prepared.mesh, |p| surface.closest(p));
+        qm_codec::compress_probed(&prepared.mesh, options, Some(&probes))?
+    } else {
+        qm_codec::compress(&prepared.mesh, options)?
+    };
+    let layout = prepared.mesh.layout();
+    Ok(Encoded {
+        bytes: compressed.bytes,
+        header_bytes: compressed.header_bytes,
+        base_bytes: compressed.base_bytes,
+        pass_ends: compressed.pass_ends,
+        samples: layout.sample_count(),
+        base_quads: layout.face_count(),
+        level: layout.level(),
+        remeshed: prepared.remeshed.clone(),
+    })
 }

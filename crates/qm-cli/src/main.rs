@@ -1,0 +1,537 @@
+//! The `qm` command line: compress, decompress and inspect `.qm` files, and
+//! measure how far two meshes are apart.
+//!
+//! Exit status: 0 on success, 1 on bad input (one line `error: ...` on
+//! stderr naming the file and the problem), 2 on bad usage.
+
+mod output;
+mod serve;
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use qm::codec::container;
+
+use output::{Failure, Progress, default_output, refuse_overwriting_input, write_atomic};
+
+#[derive(Parser)]
+#[command(
+    name = "qm",
+    version,
+    about = "Progressive mesh compression: any prefix of a .qm stream decodes"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Compress a mesh (OBJ, PLY, OFF, STL) into a .qm stream.
+    Compress {
+        /// Input mesh.
+        input: PathBuf,
+        /// Output file (default: the input with extension .qm).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Quantization bits per coordinate.
+        #[arg(long, default_value_t = qm::lift::DEFAULT_BITS, value_parser = clap::value_parser!(u32).range(qm::lift::MIN_BITS as i64..=qm::lift::MAX_BITS as i64))]
+        bits: u32,
+        /// Code at most this many bit-plane passes (default: all, lossless).
+        #[arg(long)]
+        passes: Option<u32>,
+        /// Cut the file to at most this many bytes.
+        #[arg(long)]
+        bytes: Option<usize>,
+        /// Subdivision level when the input must be remeshed (default: about
+        /// 30 samples per input vertex, at most 32).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=qm::lift::MAX_LEVEL as i64))]
+        level: Option<u32>,
+        /// Place the remeshed samples so that their details are normal
+        /// (a normal mesh, see the README; default: on).
+        #[arg(long, value_name = "on|off", value_parser = on_off)]
+        normal_remesh: Option<bool>,
+        /// Code the details in world axes, the three coordinates alike,
+        /// instead of normal first in local frames (can suit dense noisy
+        /// scans; see the README).
+        #[arg(long)]
+        no_frames: bool,
+        /// Local frames take their normals from the parent quads from this
+        /// level on (default: 3 or 4, whichever codes the mesh better, or a
+        /// later one if it codes it clearly better still; giving it skips
+        /// the extra encodings).
+        #[arg(long, conflicts_with = "no_frames", value_parser = clap::value_parser!(u32).range(3..=qm::lift::MAX_LEVEL as i64 + 1))]
+        frames_from: Option<u32>,
+        /// Write no holds (default: the encoder decodes its stream at many
+        /// cuts and makes a cut that would decode worse than a shorter one
+        /// decode as the shorter one; costs encoding time and a few header
+        /// bytes per hold; see the README).
+        #[arg(long)]
+        no_holds: bool,
+        /// No progress or summary output.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Remesh any mesh into a semi-regular quad mesh and write it.
+    Remesh {
+        /// Input mesh.
+        input: PathBuf,
+        /// Output mesh, .obj or .ply (default: the input name + "-remeshed.obj").
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Subdivision level (default: about 30 samples per input vertex, at
+        /// most 32).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=qm::lift::MAX_LEVEL as i64))]
+        level: Option<u32>,
+        /// Place the remeshed samples so that their details are normal
+        /// (a normal mesh, see the README; default: on).
+        #[arg(long, value_name = "on|off", value_parser = on_off)]
+        normal_remesh: Option<bool>,
+        /// No progress or summary output.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Decompress a .qm stream (or a prefix of one) into a mesh.
+    Decompress {
+        /// Input .qm file.
+        input: PathBuf,
+        /// Output mesh, .obj or .ply (default: the input with extension .obj).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Use only the first N bytes, as if the rest never arrived.
+        #[arg(long)]
+        bytes: Option<usize>,
+        /// Decode at most this many passes.
+        #[arg(long)]
+        passes: Option<u32>,
+        /// Output this subdivision level (0 = base mesh; default: finest).
+        #[arg(long)]
+        level: Option<u32>,
+        /// No progress or summary output.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Describe a .qm file.
+    Info {
+        /// Input .qm file.
+        input: PathBuf,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Measure the symmetric surface distance between two meshes (as Metro
+    /// does): RMS, mean and Hausdorff distance, and PSNR over A's bounding
+    /// box diagonal.
+    Distance {
+        /// First mesh; its bounding box diagonal is the PSNR peak.
+        a: PathBuf,
+        /// Second mesh.
+        b: PathBuf,
+        /// Print JSON (PSNR of identical surfaces, infinite, is null).
+        #[arg(long)]
+        json: bool,
+        /// Area-uniform samples on each surface.
+        #[arg(long, default_value_t = qm::param::distance::DEFAULT_SAMPLES, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..))]
+        samples: usize,
+        /// Sampling seed.
+        #[arg(long, default_value_t = qm::param::distance::DEFAULT_SEED)]
+        seed: u64,
+    },
+    /// Serve the browser viewer and .qm files on 127.0.0.1 (the viewer
+    /// streams a file and refines the mesh as bytes arrive).
+    Serve {
+        /// A .qm file, or a folder whose .qm files are offered.
+        path: PathBuf,
+        /// TCP port (0: any free port; the URL is printed).
+        #[arg(long, default_value_t = 8000)]
+        port: u16,
+        /// Send .qm files at most this fast, in KB/s, to watch the progression.
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+        throttle: Option<u32>,
+        /// The built viewer (default: web/dist of this source tree).
+        #[arg(long)]
+        web: Option<PathBuf>,
+        /// No log lines (the URL is still printed).
+        #[arg(long)]
+        quiet: bool,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Compress {
+            input,
+            output,
+            bits,
+            passes,
+            bytes,
+            level,
+            normal_remesh,
+            no_frames,
+            frames_from,
+            no_holds,
+            quiet,
+        } => {
+            let mut options = qm::EncodeOptions::DEFAULT
+                .with_bits(bits)
+                .with_passes(passes)
+                .with_max_bytes(bytes)
+                .with_holds(!no_holds);
+            if no_frames {
+                options = options
+                    .with_frames(false)
+                    .with_weighting(qm::Weighting::LEVELS);
+            }
+            if let Some(level) = frames_from {
+                options = options.with_frame_source(qm::Frames::ParentsFrom(level));
+            }
+            compress(
+                &input,
+                output,
+                &options,
+                &remesh_options(level, normal_remesh),
+                quiet,
+            )
+        }
+        Command::Remesh {
+            input,
+            output,
+            level,
+            normal_remesh,
+            quiet,
+        } => remesh(&input, output, &remesh_options(level, normal_remesh), quiet),
+        Command::Decompress {
+            input,
+            output,
+            bytes,
+            passes,
+            level,
+            quiet,
+        } => decompress(&input, output, bytes, passes, level, quiet),
+        Command::Info { input, json } => info(&input, json),
+        Command::Distance {
+            a,
+            b,
+            json,
+            samples,
+            seed,
+        } => distance(&a, &b, json, samples, seed),
+        Command::Serve {
+            path,
+            port,
+            throttle,
+            web,
+            quiet,
+        } => serve::serve(serve::ServeOptions {
+            path,
+            port,
+            throttle,
+            web,
+            quiet,
+        }),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(failure) => {
+            eprintln!("error: {failure}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+/// `on` or `off`.
+fn on_off(value: &str) -> Result<bool, String> {
+    match value {
+        "on" => Ok(true),
+        "off" => Ok(false),
+        _ => Err("expected on or off".into()),
+    }
+}
+
+/// The remesher's defaults with the command line's level and normal
+/// placement.
+fn remesh_options(level: Option<u32>, normal: Option<bool>) -> qm::RemeshOptions {
+    let defaults = qm::RemeshOptions::DEFAULT;
+    defaults
+        .with_level(level)
+        .with_normal(normal.unwrap_or(defaults.normal))
+}
+
+fn compress(
+    input: &Path,
+    output: Option<PathBuf>,
+    options: &qm::EncodeOptions,
+    remesh_options: &qm::RemeshOptions,
+    quiet: bool,
+) -> Result<(), Failure> {
+    let output = output.unwrap_or_else(|| default_output(input, "qm"));
+    refuse_overwriting_input(input, &output)?;
+    let progress = Progress::new(quiet);
+    progress.step("reading mesh");
+    let mesh = qm::read_mesh(input).map_err(|e| Failure::about(input, e))?;
+    progress.step("making the mesh semi-regular (subdivision connectivity or remeshing)");
+    let prepared = qm::prepare(&mesh, remesh_options).map_err(|e| Failure::about(input, e))?;
+    progress.suspend(|| {
+        if let (false, Some(r)) = (quiet, &prepared.remeshed) {
+            report_remesh(input, r);
+        }
+    });
+    progress.step("lifting and coding");
+    let compressed =
+        qm::encode_prepared(&prepared, &mesh, options).map_err(|e| Failure::about(input, e))?;
+    progress.step("writing");
+    write_atomic(&output, &compressed.bytes)?;
+    progress.finish();
+    if !quiet {
+        let total = compressed.bytes.len();
+        eprintln!(
+            "{}: {} vertices, {} base quads x level {} -> {}: {} bytes (header {}, base {}, stream {}), {} passes",
+            input.display(),
+            compressed.samples,
+            compressed.base_quads,
+            compressed.level,
+            output.display(),
+            total,
+            compressed.header_bytes,
+            compressed.base_bytes,
+            total - compressed.header_bytes - compressed.base_bytes,
+            compressed.pass_ends.len(),
+        );
+    }
+    Ok(())
+}
+
+fn remesh(
+    input: &Path,
+    output: Option<PathBuf>,
+    options: &qm::RemeshOptions,
+    quiet: bool,
+) -> Result<(), Failure> {
+    let output = output.unwrap_or_else(|| {
+        let stem = input
+            .file_stem()
+            .map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
+        input.with_file_name(format!("{stem}-remeshed.obj"))
+    });
+    refuse_overwriting_input(input, &output)?;
+    let progress = Progress::new(quiet);
+    progress.step("reading mesh");
+    let mesh = qm::read_mesh(input).map_err(|e| Failure::about(input, e))?;
+    progress.step("cleaning, cutting, parameterizing and resampling");
+    let remeshed = qm::remesh(&mesh, options).map_err(|e| Failure::about(input, e))?;
+    let layout = remeshed.mesh.layout();
+    let quads = layout.quads(layout.level());
+    let out = qm::PolyMesh::from_faces(remeshed.mesh.positions().to_vec(), &quads);
+    progress.step("writing mesh");
+    qm::write_mesh(&output, &out).map_err(|e| Failure::about(&output, e))?;
+    progress.finish();
+    if !quiet {
+        report_remesh(input, &remeshed.report);
+        eprintln!(
+            "-> {}: {} vertices, {} quads",
+            output.display(),
+            out.positions.len(),
+            out.face_count()
+        );
+    }
+    Ok(())
+}
+
+/// The clean-up line and one line per component.
+fn report_remesh(input: &Path, r: &qm::RemeshReport) {
+    eprintln!("{}: {}", input.display(), r.clean);
+    for (i, c) in r.components.iter().enumerate() {
+        eprintln!(
+            "  component {i}: {} vertices -> {} base quads x level {}, {} extra cuts, stretch {:.3}, {} flipped",
+            c.vertices, c.base_quads, r.level, c.extra_cuts, c.stretch, c.flipped
+        );
+    }
+    if let Some(n) = r.normal {
+        eprintln!(
+            "  normal placement: {} samples moved onto their normal ray, {} kept their detail",
+            n.moved, n.kept
+        );
+    }
+}
+
+fn decompress(
+    input: &Path,
+    output: Option<PathBuf>,
+    bytes: Option<usize>,
+    passes: Option<u32>,
+    level: Option<u32>,
+    quiet: bool,
+) -> Result<(), Failure> {
+    let output = output.unwrap_or_else(|| default_output(input, "obj"));
+    refuse_overwriting_input(input, &output)?;
+    match qm::io::Format::from_path(&output) {
+        Some(qm::io::Format::Obj | qm::io::Format::Ply) => {}
+        _ => {
+            return Err(Failure::new(format!(
+                "{}: output must be .obj or .ply",
+                output.display()
+            )));
+        }
+    }
+    let progress = Progress::new(quiet);
+    progress.step("reading stream");
+    let data = std::fs::read(input).map_err(|e| Failure::about(input, e))?;
+    progress.step("decoding");
+    let options = qm::DecodeOptions::default()
+        .with_max_bytes(bytes)
+        .with_passes(passes)
+        .with_level(level);
+    let qm::Decoded {
+        mesh, raw: decoded, ..
+    } = qm::decode(&data, &options).map_err(|e| Failure::about(input, e))?;
+    progress.step("writing mesh");
+    qm::write_mesh(&output, &mesh).map_err(|e| Failure::about(&output, e))?;
+    progress.finish();
+    if !quiet {
+        let used = decoded.header_bytes + decoded.base_bytes + decoded.stream_bytes;
+        eprintln!(
+            "{}: {} of {} bytes{}, {} of {} passes -> {}: level {}, {} vertices, {} quads",
+            input.display(),
+            used,
+            data.len(),
+            if decoded.decoded_stream_bytes < decoded.stream_bytes {
+                format!(
+                    " (inside a hold: decoded as the first {})",
+                    used - decoded.stream_bytes + decoded.decoded_stream_bytes
+                )
+            } else {
+                String::new()
+            },
+            decoded.passes,
+            decoded.header.passes,
+            output.display(),
+            decoded.level,
+            mesh.positions.len(),
+            mesh.face_count(),
+        );
+    }
+    Ok(())
+}
+
+/// What `qm info` reports.
+#[derive(serde::Serialize)]
+struct Info {
+    file: String,
+    total_bytes: usize,
+    header_bytes: usize,
+    base_bytes: usize,
+    stream_bytes: usize,
+    version: u8,
+    bits: u8,
+    level: u8,
+    passes: u8,
+    planes: u8,
+    update: String,
+    weight_bits: u8,
+    normal_bits: u8,
+    frames: bool,
+    parent_frames_from: Option<u32>,
+    base_vertices: u32,
+    base_faces: u32,
+    base_low_bits_in_stream: u32,
+
+    holds: Vec<[u32; 2]>,
+    vertices: u64,
+    faces: u64,
+    bbox_min: [f64; 3],
+    step: f64,
+}
+
+fn info(input: &Path, json: bool) -> Result<(), Failure> {
+    let data = std::fs::read(input).map_err(|e| Failure::about(input, e))?;
+    let c = container::read(&data, &qm::Limits::DEFAULT).map_err(|e| Failure::about(input, e))?;
+    let h = &c.header;
+    let base = qm::lift::BaseMesh::new(h.base_vertices, c.base.faces.clone())
+        .map_err(|e| Failure::about(input, qm::codec::Error::from(e)))?;
+    let n = 1u64 << h.level;
+    let faces = h.base_faces as u64;
+    let update = qm::UpdateRule::from_code(h.update).map_or("unknown".into(), |u| format!("{u:?}"));
+    let info = Info {
+        file: input.display().to_string(),
+        total_bytes: data.len(),
+        header_bytes: c.header_bytes,
+        base_bytes: c.base_bytes,
+        stream_bytes: c.stream.len(),
+        version: data[4],
+        bits: h.bits,
+        level: h.level,
+        passes: h.passes,
+        planes: h.planes,
+        update,
+        weight_bits: h.weight_bits,
+        normal_bits: h.normal_bits,
+        frames: h.frames > 0,
+        parent_frames_from: h.parent_frames_from(),
+        base_vertices: h.base_vertices,
+        base_faces: h.base_faces,
+        base_low_bits_in_stream: c.base.low_bits,
+        holds: h.holds.clone(),
+        vertices: base.sample_count(h.level as u32),
+        faces: faces * n * n,
+        bbox_min: h.origin,
+        step: h.step,
+    };
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&info).expect("plain data serializes")
+        );
+    } else {
+        let value = serde_json::to_value(&info).expect("plain data serializes");
+        for (key, v) in value.as_object().expect("a struct is an object") {
+            println!(
+                "{key:>18}: {}",
+                v.as_str().map_or(v.to_string(), str::to_string)
+            );
+        }
+    }
+    Ok(())
+}
+
+fn distance(a: &Path, b: &Path, json: bool, samples: usize, seed: u64) -> Result<(), Failure> {
+    use qm::param::distance::{DistanceOptions, Side};
+
+    let mesh_a = qm::read_mesh(a).map_err(|e| Failure::about(a, e))?;
+    let mesh_b = qm::read_mesh(b).map_err(|e| Failure::about(b, e))?;
+    let options = DistanceOptions::DEFAULT
+        .with_samples(samples)
+        .with_seed(seed);
+    let report = qm::param::distance(&mesh_a, &mesh_b, &options).map_err(|e| {
+        let path = match e {
+            qm::param::Error::NoFaces { mesh: Side::B }
+            | qm::param::Error::ZeroArea { mesh: Side::B }
+            | qm::param::Error::MissingVertex { mesh: Side::B, .. }
+            | qm::param::Error::NonFinite { mesh: Side::B, .. } => b,
+            _ => a,
+        };
+        Failure::about(path, qm::Error::from(e))
+    })?;
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).expect("plain data serializes")
+        );
+    } else {
+        let side = |name: &str, s: &qm::param::OneSided| {
+            println!(
+                "{name:>10}: rms {:.6e}, mean {:.6e}, max {:.6e} ({} samples)",
+                s.rms, s.mean, s.max, s.samples
+            );
+        };
+        println!("{:>10}: {:.6e}", "rms", report.rms);
+        println!("{:>10}: {:.6e}", "mean", report.mean);
+        println!("{:>10}: {:.6e}", "hausdorff", report.hausdorff);
+        println!("{:>10}: {:.3} dB", "psnr", report.psnr_db);
+        println!("{:>10}: {:.6e}", "diag", report.diag);
+        side("A -> B", &report.a_to_b);
+        side("B -> A", &report.b_to_a);
+    }
+    Ok(())
+}

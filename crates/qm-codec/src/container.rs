@@ -1,0 +1,662 @@
+//! The `.qm` container: magic, header, base mesh, embedded stream.
+//!
+//! | bytes | content |
+//! |---|---|
+//! | 4 | magic `89 51 4D 0A` (`\x89QM\n`) |
+//! | 1 | format version ([`VERSION`], 1) |
+//! | 2 | header length `H`, little endian |
+//! | `H` | [`Header`]'s fields, then its [`Header::holds`] (byte by byte: `docs/format.md`) |
+//! | 4 | CRC-32 of everything above |
+//! | 4 | base section length `B`, little endian |
+//! | `B` | base mesh: face corners, then the level-0 scaling values without their low bits, predicted and arithmetic-coded (see `basecode`) |
+//! | 4 | CRC-32 of the base section |
+//! | rest | the embedded EZW stream, to the end of the data |
+//!
+//! The stream has no length field and no checksum: any prefix of it is a
+//! valid, coarser stream. Everything before it is checked, and a cut there is
+//! reported with the number of bytes needed.
+
+use serde::{Deserialize, Serialize};
+
+use crate::{Error, Result, basecode};
+
+/// Magic bytes at the start of every `.qm` file.
+pub const MAGIC: [u8; 4] = [0x89, b'Q', b'M', b'\n'];
+
+/// The format version this build writes and reads (the first published
+/// one; `docs/format.md` specifies it).
+pub const VERSION: u8 = 1;
+
+/// Largest [`Header::frames`]: parent-quad normals from level
+/// `MAX_LEVEL + 1` on, that is never.
+pub const MAX_FRAMES: u8 = qm_lift::MAX_LEVEL as u8 - 1;
+
+/// The first level whose frames use parent-quad normals for a
+/// [`Header::frames`] value, `None` for world axes.
+pub fn parent_frames_from(frames: u8) -> Option<u32> {
+    (frames > 0).then_some(frames as u32 + 2)
+}
+
+/// Everything a decoder needs besides the base mesh and the stream.
+///
+/// The fields are written in this order with bincode's standard
+/// configuration (see `docs/format.md` for the bytes).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Header {
+    /// Quantization bits per coordinate.
+    pub bits: u8,
+    /// Subdivision levels above the base mesh.
+    pub level: u8,
+    /// Lifting update rule ([`qm_lift::UpdateRule::code`]).
+    pub update: u8,
+    /// Weighting bits per level of the bit-plane coder.
+    pub weight_bits: u8,
+    /// Extra weighting bits of the first (normal) coordinate.
+    pub normal_bits: u8,
+    /// Details in world axes (0), or in local frames, normal first, whose
+    /// normals come from the parent quads from level `frames + 2` on
+    /// (`1..=`[`MAX_FRAMES`]).
+    pub frames: u8,
+    /// Quantization grid origin.
+    pub origin: [f64; 3],
+    /// Quantization step.
+    pub step: f64,
+    /// Number of base vertices.
+    pub base_vertices: u32,
+    /// Number of base faces.
+    pub base_faces: u32,
+    /// Bit planes of the complete stream.
+    pub planes: u8,
+    /// Passes the stream holds (at most `planes`).
+    pub passes: u8,
+    /// Bits 0 to 4: the low bits of each base value that the stream
+    /// carries instead of the base section
+    /// ([`qm_ezw::StreamParams::base_bits`]). The other bits are reserved
+    /// and zero.
+    pub flags: u32,
+    /// Cuts of the stream that decode as a shorter cut. A stream prefix of
+    /// `n` bytes with `from < n < to` for a hold `[from, to]` decodes as its
+    /// first `from` bytes, because the encoder measured those closer to the
+    /// surface than any cut in between (see [`Self::hold_cut`]). Offsets
+    /// count stream bytes; the holds are ordered and do not overlap.
+    /// Written after the other fields, each as the gap from the last hold's
+    /// end and its length.
+    #[serde(skip)]
+    pub holds: Vec<[u32; 2]>,
+}
+
+/// [`Header::hold_cut`] for ordered, non-overlapping `holds`.
+pub fn hold_cut(holds: &[[u32; 2]], n: usize) -> usize {
+    let i = holds.partition_point(|h| h[1] as usize <= n);
+    match holds.get(i) {
+        Some(&[from, _]) if (from as usize) < n => from as usize,
+        _ => n,
+    }
+}
+
+/// The flags' bits that hold the base bits in the stream.
+pub const BASE_BITS_MASK: u32 = 0x1f;
+
+impl Header {
+    /// The first level whose frames use parent-quad normals, `None` for
+    /// world axes (see [`Self::frames`]).
+    pub fn parent_frames_from(&self) -> Option<u32> {
+        parent_frames_from(self.frames)
+    }
+
+    /// How many of the first `n` stream bytes a decoder uses: `from` when
+    /// `n` falls strictly inside a hold `[from, to]`, `n` otherwise.
+    pub fn hold_cut(&self, n: usize) -> usize {
+        hold_cut(&self.holds, n)
+    }
+
+    /// What the bit-plane decoder must be told about the stream.
+    pub fn stream_params(&self) -> qm_ezw::StreamParams {
+        let weighting = qm_ezw::Weighting {
+            bits_per_level: self.weight_bits as u32,
+            normal_bits: self.normal_bits as u32,
+        };
+        qm_ezw::StreamParams {
+            planes: self.planes as u32,
+            passes: self.passes as u32,
+            weighting,
+            base_bits: self.flags & BASE_BITS_MASK,
+            contexts: qm_ezw::Contexts::Neighbours,
+        }
+    }
+}
+
+/// The base mesh as stored: corners of each face, then the level-0 scaling
+/// value of each base vertex without its low bits.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BaseSection {
+    /// Counter-clockwise corners of each base face.
+    pub faces: Vec<[u32; 4]>,
+    /// Quantized level-0 values, one per base vertex, shifted right
+    /// (arithmetically) by `low_bits`.
+    pub values: Vec<[i32; 3]>,
+    /// Low bits of each value that are in the stream instead
+    /// ([`qm_ezw::StreamParams::base_bits`]).
+    pub low_bits: u32,
+}
+
+/// A parsed container: header, base mesh and the stream bytes that follow.
+#[derive(Clone, Debug)]
+pub struct Container<'a> {
+    /// The header.
+    pub header: Header,
+    /// The base mesh.
+    pub base: BaseSection,
+    /// The embedded stream (as much of it as is present).
+    pub stream: &'a [u8],
+    /// Bytes of magic, version, header and its checksum.
+    pub header_bytes: usize,
+    /// Bytes of the base section with its length and checksum.
+    pub base_bytes: usize,
+}
+
+fn config() -> bincode::config::Configuration {
+    bincode::config::standard()
+}
+
+/// Writes a complete container.
+pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u8>> {
+    let low_bits = header.stream_params().base_bits;
+    check_holds(&header.holds)?;
+    let unknown = header.flags & !BASE_BITS_MASK;
+    if unknown != 0 {
+        return Err(Error::Malformed {
+            what: format!("reserved header flags {unknown:#x} set"),
+        });
+    }
+    if base.low_bits != low_bits {
+        return Err(Error::Malformed {
+            what: format!(
+                "{} low base bits in the stream, the flags say {low_bits}",
+                base.low_bits
+            ),
+        });
+    }
+    let mut header_bytes =
+        bincode::serde::encode_to_vec(header, config()).map_err(|e| Error::Malformed {
+            what: e.to_string(),
+        })?;
+    let mut end = 0;
+    let relative: Vec<[u32; 2]> = (header.holds.iter())
+        .map(|&[from, to]| {
+            let gap = from - end;
+            end = to;
+            [gap, to - from]
+        })
+        .collect();
+    bincode::serde::encode_into_std_write(&relative, &mut header_bytes, config()).map_err(|e| {
+        Error::Malformed {
+            what: e.to_string(),
+        }
+    })?;
+    let header_len = u16::try_from(header_bytes.len()).map_err(|_| Error::Limit {
+        what: "header length (holds)",
+        value: header_bytes.len() as u64,
+        max: u16::MAX as u64,
+    })?;
+    let mut out = Vec::with_capacity(64 + stream.len());
+    out.extend_from_slice(&MAGIC);
+    out.push(VERSION);
+    out.extend_from_slice(&header_len.to_le_bytes());
+    out.extend_from_slice(&header_bytes);
+    out.extend_from_slice(&crc32fast::hash(&out).to_le_bytes());
+
+    let base_bytes = basecode::encode(&base.faces, &base.values);
+    out.extend_from_slice(&(base_bytes.len() as u32).to_le_bytes());
+    out.extend_from_slice(&base_bytes);
+    out.extend_from_slice(&crc32fast::hash(&base_bytes).to_le_bytes());
+    out.extend_from_slice(stream);
+    Ok(out)
+}
+
+/// Most extra weighting bits of the normal coordinate.
+pub const MAX_NORMAL_BITS: u8 = 8;
+
+/// Decoder limits on what header fields may ask for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct Limits {
+    /// Most base vertices.
+    pub max_base_vertices: u32,
+    /// Most base faces.
+    pub max_base_faces: u32,
+    /// Most samples of the decoded mesh.
+    pub max_samples: u64,
+}
+
+impl Limits {
+    /// Defaults: 4M base vertices and faces, 64M samples (a few GiB of memory).
+    pub const DEFAULT: Limits = Limits {
+        max_base_vertices: 1 << 22,
+        max_base_faces: 1 << 22,
+        max_samples: 1 << 26,
+    };
+
+    /// Sets the sample limit.
+    pub const fn with_max_samples(mut self, max: u64) -> Self {
+        self.max_samples = max;
+        self
+    }
+}
+
+impl Limits {
+    /// No limits beyond what the format itself can describe: for bytes the
+    /// caller wrote itself.
+    pub const NONE: Limits = Limits {
+        max_base_vertices: u32::MAX,
+        max_base_faces: u32::MAX,
+        max_samples: u64::MAX,
+    };
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits::DEFAULT
+    }
+}
+
+fn take(data: &[u8], at: usize, len: usize) -> Result<&[u8]> {
+    data.get(at..at + len).ok_or(Error::Truncated {
+        needed: at + len,
+        available: data.len(),
+    })
+}
+
+fn limit(what: &'static str, value: u64, max: u64) -> Result<()> {
+    if value > max {
+        Err(Error::Limit { what, value, max })
+    } else {
+        Ok(())
+    }
+}
+
+/// Parses the header and base mesh of `data`, checking checksums and limits.
+pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
+    let magic = take(data, 0, 4)?;
+    if magic != MAGIC {
+        return Err(Error::NotQm);
+    }
+    let version = take(data, 4, 1)?[0];
+    if version != VERSION {
+        return Err(Error::UnsupportedVersion {
+            found: version,
+            newest: VERSION,
+        });
+    }
+    let header_len = u16::from_le_bytes(take(data, 5, 2)?.try_into().expect("2 bytes")) as usize;
+    let header_raw = take(data, 7, header_len)?;
+    let crc = u32::from_le_bytes(take(data, 7 + header_len, 4)?.try_into().expect("4 bytes"));
+    if crc != crc32fast::hash(&data[..7 + header_len]) {
+        return Err(Error::Checksum { section: "header" });
+    }
+    let (header, relative): (Header, Vec<[u32; 2]>) = decode_exact(header_raw, "header")?;
+    let mut end = 0u32;
+    let mut holds = Vec::with_capacity(relative.len());
+    for [gap, len] in relative {
+        let from = end.checked_add(gap);
+        let to = from.and_then(|f| f.checked_add(len));
+        let (Some(from), Some(to)) = (from, to) else {
+            return Err(Error::Malformed {
+                what: "a hold beyond 4 GiB".into(),
+            });
+        };
+        holds.push([from, to]);
+        end = to;
+    }
+    let header = Header { holds, ..header };
+    let header_bytes = 7 + header_len + 4;
+    check_header(&header, limits)?;
+
+    let base_len =
+        u32::from_le_bytes(take(data, header_bytes, 4)?.try_into().expect("4 bytes")) as usize;
+    // A base mesh needs at least one byte per face corner; more is a lie.
+    let most = 16 * (header.base_faces as usize + header.base_vertices as usize) + 16;
+    if base_len > most {
+        return Err(Error::Malformed {
+            what: format!(
+                "base section length {base_len} for {} faces",
+                header.base_faces
+            ),
+        });
+    }
+    let base_raw = take(data, header_bytes + 4, base_len)?;
+    let crc = u32::from_le_bytes(
+        take(data, header_bytes + 4 + base_len, 4)?
+            .try_into()
+            .expect("4 bytes"),
+    );
+    if crc != crc32fast::hash(base_raw) {
+        return Err(Error::Checksum {
+            section: "base mesh",
+        });
+    }
+    let low_bits = header.stream_params().base_bits;
+    let base = basecode::decode(
+        base_raw,
+        header.base_faces as usize,
+        header.base_vertices as usize,
+        low_bits,
+    )
+    .map_err(|problem| Error::Malformed {
+        what: format!("base mesh: {problem}"),
+    })?;
+    let base_bytes = 4 + base_len + 4;
+    Ok(Container {
+        header,
+        base,
+        stream: &data[header_bytes + base_bytes..],
+        header_bytes,
+        base_bytes,
+    })
+}
+
+fn decode_exact<T: serde::de::DeserializeOwned>(raw: &[u8], what: &str) -> Result<T> {
+    // The limit stops a corrupt length prefix from allocating more than the
+    // section could possibly hold.
+    let cfg = config().with_limit::<{ 1 << 30 }>();
+    let (value, used) = bincode::serde::decode_from_slice(raw, cfg).map_err(|e| {
+        use bincode::error::DecodeError;
+        let problem = match e {
+            DecodeError::UnexpectedEnd { .. } => "it ends before its last field".to_string(),
+            DecodeError::LimitExceeded => "a length field is larger than the section".to_string(),
+            other => other.to_string(),
+        };
+        Error::Malformed {
+            what: format!("{what}: {problem}"),
+        }
+    })?;
+    if used != raw.len() {
+        return Err(Error::Malformed {
+            what: format!("{what}: {} trailing bytes", raw.len() - used),
+        });
+    }
+    Ok(value)
+}
+
+/// Holds must be non-empty, ordered and apart: `from < to <= next from`.
+fn check_holds(holds: &[[u32; 2]]) -> Result<()> {
+    let mut end = 0;
+    for &[from, to] in holds {
+        if from < end || to <= from {
+            return Err(Error::Malformed {
+                what: format!("hold [{from}, {to}] after one ending at {end}"),
+            });
+        }
+        end = to;
+    }
+    Ok(())
+}
+
+fn check_header(h: &Header, limits: &Limits) -> Result<()> {
+    check_holds(&h.holds)?;
+    limit(
+        "base vertex count",
+        h.base_vertices as u64,
+        limits.max_base_vertices as u64,
+    )?;
+    limit(
+        "base face count",
+        h.base_faces as u64,
+        limits.max_base_faces as u64,
+    )?;
+    limit(
+        "subdivision level",
+        h.level as u64,
+        qm_lift::MAX_LEVEL as u64,
+    )?;
+    if !(qm_lift::MIN_BITS..=qm_lift::MAX_BITS).contains(&(h.bits as u32)) {
+        return Err(Error::Malformed {
+            what: format!("{} quantization bits", h.bits),
+        });
+    }
+    if qm_lift::UpdateRule::from_code(h.update).is_none() {
+        return Err(Error::Malformed {
+            what: format!("unknown update rule {}", h.update),
+        });
+    }
+    if h.frames > MAX_FRAMES {
+        return Err(Error::Malformed {
+            what: format!("unknown frame kind {}", h.frames),
+        });
+    }
+    // Weighted planes cannot exceed the coefficient bits plus the weights.
+    let most_planes =
+        h.bits as u32 + 8 + h.weight_bits as u32 * h.level as u32 + h.normal_bits as u32;
+    for (what, bits, most) in [
+        ("level", h.weight_bits, 2),
+        ("normal", h.normal_bits, MAX_NORMAL_BITS),
+    ] {
+        if bits > most {
+            return Err(Error::Malformed {
+                what: format!("{what} weight of {bits} bits (at most {most})"),
+            });
+        }
+    }
+    if h.planes as u32 > most_planes || h.passes > h.planes {
+        return Err(Error::Malformed {
+            what: format!("{} passes of {} planes", h.passes, h.planes),
+        });
+    }
+    if h.flags & !BASE_BITS_MASK != 0 {
+        return Err(Error::Malformed {
+            what: format!("unknown header flags {:#x}", h.flags & !BASE_BITS_MASK),
+        });
+    }
+    let params = h.stream_params();
+    let most = params
+        .weighting
+        .max_base_bits(h.planes as u32, h.level as u32);
+    if params.base_bits > most {
+        return Err(Error::Malformed {
+            what: format!(
+                "{} low base bits in the stream, which has planes for {most}",
+                params.base_bits
+            ),
+        });
+    }
+    if !(h.step.is_finite() && h.step > 0.0 && h.origin.iter().all(|x| x.is_finite())) {
+        return Err(Error::Malformed {
+            what: "quantization origin or step is not finite".into(),
+        });
+    }
+    // Upper bound of the sample count before anything is allocated.
+    let n = 1u64 << h.level;
+    let faces = h.base_faces as u64;
+    let samples = h.base_vertices as u64 + 4 * faces * (n - 1) + faces * (n - 1) * (n - 1);
+    limit("sample count", samples, limits.max_samples)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> (Header, BaseSection) {
+        let header = Header {
+            bits: 12,
+            level: 3,
+            update: 2,
+            weight_bits: 1,
+            normal_bits: 2,
+            frames: 1,
+            origin: [0.5, -1.0, 2.0],
+            step: 0.001,
+            base_vertices: 4,
+            base_faces: 1,
+            planes: 14,
+            passes: 14,
+            flags: 10,
+            holds: vec![[3, 9], [9, 12], [300, 70_000]],
+        };
+        // 14 planes at level 3 leave room for the low 10 bits in the
+        // stream; the flags say it holds them all.
+        let low_bits = header.stream_params().base_bits;
+        assert_eq!(low_bits, 10);
+        let values = [[0, 0, 0], [4095, 0, 7], [4095, 4095, -3], [0, 4095, 9]];
+        let base = BaseSection {
+            faces: vec![[0, 1, 2, 3]],
+            values: values.map(|v| v.map(|x| x >> low_bits)).to_vec(),
+            low_bits,
+        };
+        (header, base)
+    }
+
+    /// Holds survive the round trip, map cuts inside them to their start,
+    /// and overlapping or empty ones are refused.
+    #[test]
+    fn holds_round_trip_and_map_cuts() {
+        let (header, base) = sample();
+        let bytes = write(&header, &base, b"").unwrap();
+        let c = read(&bytes, &Limits::DEFAULT).unwrap();
+        assert_eq!(c.header.holds, header.holds);
+        let cuts = [
+            0, 3, 4, 8, 9, 10, 11, 12, 13, 300, 301, 69_999, 70_000, 70_001,
+        ];
+        let mapped = [0, 3, 3, 3, 9, 9, 9, 12, 13, 300, 300, 300, 70_000, 70_001];
+        assert_eq!(cuts.map(|n| header.hold_cut(n)), mapped);
+        for holds in [vec![[3, 3]], vec![[3, 9], [8, 12]], vec![[9, 3]]] {
+            let mut bad = header.clone();
+            bad.holds = holds;
+            assert!(write(&bad, &base, b"").is_err(), "{:?}", bad.holds);
+        }
+        // More holds than a 64 KiB header holds: refused, not wrapped.
+        let mut many = header.clone();
+        many.holds = (0..40_000).map(|k| [3 * k, 3 * k + 1]).collect();
+        assert!(matches!(write(&many, &base, b""), Err(Error::Limit { .. })));
+    }
+
+    /// A header whose holds, added up, pass 4 GiB is refused.
+    #[test]
+    fn holds_beyond_4_gib_are_refused() {
+        let (header, base) = sample();
+        let good = write(&header, &base, b"").unwrap();
+        let mut raw = bincode::serde::encode_to_vec(&header, config()).unwrap();
+        let relative: Vec<[u32; 2]> = vec![[u32::MAX - 1, 1], [1, 1]];
+        bincode::serde::encode_into_std_write(&relative, &mut raw, config()).unwrap();
+        let mut bytes = MAGIC.to_vec();
+        bytes.push(VERSION);
+        bytes.extend_from_slice(&(raw.len() as u16).to_le_bytes());
+        bytes.extend_from_slice(&raw);
+        bytes.extend_from_slice(&crc32fast::hash(&bytes).to_le_bytes());
+        let old_header = 7 + u16::from_le_bytes([good[5], good[6]]) as usize + 4;
+        bytes.extend_from_slice(&good[old_header..]);
+        match read(&bytes, &Limits::DEFAULT) {
+            Err(Error::Malformed { what }) => assert!(what.contains("4 GiB"), "{what}"),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    /// A high part whose value with its low bits would leave 32 bits is
+    /// refused.
+    #[test]
+    fn base_high_parts_out_of_range_are_refused() {
+        let (header, mut base) = sample();
+        base.values[2][1] = i32::MAX >> 10;
+        assert!(read(&write(&header, &base, b"").unwrap(), &Limits::DEFAULT).is_ok());
+        base.values[2][1] = (i32::MAX >> 10) + 1;
+        let bytes = write(&header, &base, b"").unwrap();
+        match read(&bytes, &Limits::DEFAULT) {
+            Err(Error::Malformed { what }) => assert!(what.contains("out of range"), "{what}"),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn round_trip_and_stream_follows() {
+        let (header, base) = sample();
+        let bytes = write(&header, &base, b"stream!").unwrap();
+        let c = read(&bytes, &Limits::DEFAULT).unwrap();
+        assert_eq!(c.header, header);
+        assert_eq!(c.base, base);
+        assert_eq!(c.stream, b"stream!");
+        assert_eq!(c.header_bytes + c.base_bytes + 7, bytes.len());
+    }
+
+    #[test]
+    fn cuts_before_the_stream_name_the_bytes_needed() {
+        let (header, base) = sample();
+        let bytes = write(&header, &base, b"").unwrap();
+        for cut in 0..bytes.len() {
+            match read(&bytes[..cut], &Limits::DEFAULT) {
+                Err(Error::Truncated { needed, available }) => {
+                    assert_eq!(available, cut);
+                    assert!(needed > cut && needed <= bytes.len());
+                }
+                other => panic!("cut {cut}: {other:?}"),
+            }
+        }
+        assert!(read(&bytes, &Limits::DEFAULT).is_ok());
+    }
+
+    #[test]
+    fn corruption_is_caught_by_checksums() {
+        let (header, base) = sample();
+        let bytes = write(&header, &base, b"").unwrap();
+        for i in 7..bytes.len() {
+            let mut bad = bytes.clone();
+            bad[i] ^= 0x10;
+            assert!(
+                read(&bad, &Limits::DEFAULT).is_err(),
+                "flip at {i} went unnoticed"
+            );
+        }
+        let mut bad = bytes.clone();
+        bad[0] = b'X';
+        assert!(matches!(read(&bad, &Limits::DEFAULT), Err(Error::NotQm)));
+        let mut bad = bytes;
+        bad[4] = 9;
+        assert!(matches!(
+            read(&bad, &Limits::DEFAULT),
+            Err(Error::UnsupportedVersion { found: 9, .. })
+        ));
+    }
+
+    /// More base bits in the stream than it has planes for are refused
+    /// with what is wrong; so are reserved flags, by the writer (the
+    /// reader's refusal is in the hostile corpus).
+    #[test]
+    fn impossible_base_bits_and_unknown_flags_are_refused() {
+        let (mut header, base) = sample();
+        header.flags = 11;
+        let mut base = base.clone();
+        base.low_bits = header.stream_params().base_bits;
+        let bytes = write(&header, &base, b"").unwrap();
+        match read(&bytes, &Limits::DEFAULT) {
+            Err(Error::Malformed { what }) => assert!(what.contains("planes for 10"), "{what}"),
+            other => panic!("{other:?}"),
+        }
+        base.low_bits = 10;
+        for flags in [0x40 | 10, 0x20 | 10, 1 << 31] {
+            let header = Header {
+                flags,
+                ..header.clone()
+            };
+            let base = BaseSection {
+                low_bits: header.stream_params().base_bits,
+                ..base.clone()
+            };
+            match write(&header, &base, b"") {
+                Err(Error::Malformed { what }) => assert!(what.contains("reserved"), "{what}"),
+                other => panic!("flags {flags:#x}: {other:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn absurd_sizes_are_refused() {
+        let (mut header, mut base) = sample();
+        header.level = 12;
+        header.base_faces = 1 << 20;
+        header.flags = 0;
+        base.low_bits = header.stream_params().base_bits;
+        let bytes = write(&header, &base, b"").unwrap();
+        assert!(matches!(
+            read(&bytes, &Limits::DEFAULT),
+            Err(Error::Limit { .. })
+        ));
+    }
+}

@@ -1,0 +1,341 @@
+//! Holds: where a longer cut of the stream would decode worse than a
+//! shorter one, the decoder stays at the shorter one.
+//!
+//! A bit-plane pass refines the coefficients one tree after another. With
+//! the update step every wavelet has zero mean, so the errors of a whole
+//! region's coefficients, of one sign, cancel; a pass that has refined half
+//! of them leaves errors of both signs, which do not (README, "Rate and
+//! distortion"). Inside such a pass the surface moves away from the input
+//! for a while. The encoder sees this: it decodes its own stream at many
+//! cuts, measures each against the surface with [`Probes`], and writes a
+//! *hold* `[from, to]` into the header (format version 4) wherever the cuts
+//! after `from` are worse than `from` until `to`. A decoder given a cut
+//! inside a hold decodes its first `from` bytes instead
+//! ([`crate::container::Header::hold_cut`]), so the error never grows with
+//! the bytes, as far as the encoder's measure goes.
+//!
+//! The measure is the area-weighted mean squared distance along the normal
+//! between the decoded surface and the input, at probe points (three in
+//! each triangle of the finest quads): the decoded point's offset from the
+//! point's foot on the input, along the normal of its triangle. The feet
+//! are either the lossless surface itself ([`Probes::on_surface`]: the
+//! encoder knows nothing else) or the closest points of the mesh the
+//! semi-regular mesh was made from ([`Probes::new`]), whose own distance
+//! (the remesh's error) then adds in with its sign, as it does in a Metro
+//! distance.
+
+use qm_lift::glam::DVec3;
+use qm_lift::{Coord, Quantizer, SemiRegularMesh};
+use rayon::prelude::*;
+
+use crate::codec::{Compressed, measure_cuts};
+
+/// Where a triangle carries its probe points: the degree-2 rule of three
+/// interior points, exact for the mean square of an offset that is linear
+/// over the triangle.
+const WEIGHTS: [[f64; 3]; 3] = [
+    [2.0 / 3.0, 1.0 / 6.0, 1.0 / 6.0],
+    [1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0],
+    [1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0],
+];
+
+/// Most probe points; above, every `k`-th quad carries them (`cargo xtask
+/// rd-curve` measures with 200,000 samples per side).
+pub const MAX_PROBES: usize = 1 << 17;
+
+/// Most cut decodes times samples per stream: the finer the mesh, the fewer
+/// log-spaced cuts (cc_cube: 2,730 steps, one at every byte below about
+/// 300 bytes; with the pass ends, 1,264 distinct cuts; spot 185, the bunny
+/// 45, from [`MIN_CUTS`]). Each cut is a decode with a whole inverse
+/// lifting: 2^26 made spot's encoding 2.5 times slower again.
+pub const CUT_WORK: usize = 1 << 24;
+
+/// Fewest cuts tried (besides the pass ends), however fine the mesh.
+pub const MIN_CUTS: usize = 24;
+
+/// A longer cut's error must exceed the best shorter one's by this factor
+/// (0.1 dB) for a hold to pay its header bytes. At 0.02 dB cc_cube's
+/// header grew to 177 bytes instead of 111 (on a 2% grid of prefixes, 65
+/// dB at 291 bytes instead of 225), for a largest measured fall of 0.025
+/// dB instead of 0.07 (README, "Holds").
+const RISE: f64 = 1.023_292_992_3;
+
+/// The rise a hold needs in a stream of [`LONG_STREAM`] bytes or more
+/// (0.02 dB): there a hold's few header bytes are a small part of every cut
+/// but the first few hundred bytes. It catches rocker-arm's 0.04 dB fall
+/// at 47 dB (a hold of 47 bytes after pass 4), which 0.1 dB leaves.
+const RISE_LONG: f64 = 1.004_615_794_8;
+
+/// Streams this long hold rises of 0.02 dB instead of 0.1 dB.
+pub const LONG_STREAM: usize = 1 << 16;
+
+/// Points where the encoder measures its cuts against the input surface.
+#[derive(Clone, Debug)]
+pub struct Probes {
+    points: Vec<Probe>,
+    /// Samples of the mesh the probes were built on.
+    samples: usize,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Probe {
+    /// The triangle's samples.
+    corners: [u32; 3],
+    /// The point's barycentric coordinates in it.
+    weights: [f64; 3],
+    /// The point's foot on the input surface (world coordinates).
+    foot: DVec3,
+    /// Unit normal of the triangle.
+    normal: DVec3,
+    /// Area the point stands for.
+    weight: f64,
+}
+
+impl Probes {
+    /// Probes at three points of each of the finest quads' two triangles
+    /// of `mesh` (of every `k`-th quad beyond [`MAX_PROBES`]), their feet
+    /// at `foot` of each point (the closest point of the input surface).
+    pub fn new(mesh: &SemiRegularMesh, foot: impl Fn(DVec3) -> DVec3 + Sync) -> Self {
+        let layout = mesh.layout();
+        let quads = layout.quads(layout.level());
+        let per_quad = 2 * WEIGHTS.len();
+        let stride = (per_quad * quads.len()).div_ceil(MAX_PROBES).max(1);
+        let p = |s: u32| mesh.positions()[s as usize];
+        let foot = &foot;
+        let points = (quads.par_iter().step_by(stride))
+            .flat_map_iter(|&[a, b, c, d]| {
+                [[a, b, c], [a, c, d]].into_iter().flat_map(move |corners| {
+                    let [p0, p1, p2] = corners.map(p);
+                    let cross = (p1 - p0).cross(p2 - p0);
+                    let weight = 0.5 * cross.length() * stride as f64 / WEIGHTS.len() as f64;
+                    WEIGHTS.map(|weights| {
+                        let at = weights[0] * p0 + weights[1] * p1 + weights[2] * p2;
+                        Probe {
+                            corners,
+                            weights,
+                            foot: foot(at),
+                            normal: cross.normalize_or_zero(),
+                            weight,
+                        }
+                    })
+                })
+            })
+            .collect();
+        Probes {
+            points,
+            samples: layout.sample_count(),
+        }
+    }
+
+    /// Probes whose feet are on `mesh` itself: the cuts are measured
+    /// against the lossless surface before quantization.
+    pub fn on_surface(mesh: &SemiRegularMesh) -> Self {
+        Probes::new(mesh, |p| p)
+    }
+
+    /// Samples of the mesh the probes were built on: a stream of another
+    /// mesh is refused.
+    pub fn samples(&self) -> usize {
+        self.samples
+    }
+
+    /// Area-weighted mean squared distance along the normal of the
+    /// quantized `values` from the feet.
+    fn error(&self, quantizer: &Quantizer, values: &[Coord]) -> f64 {
+        let at = |s: u32| quantizer.dequantize(values[s as usize].map(f64::from));
+        let (sum, weight) = self.points.iter().fold((0.0, 0.0), |(sum, weight), p| {
+            let [a, b, c] = p.corners.map(at);
+            let [u, v, w] = p.weights;
+            let offset = (u * a + v * b + w * c - p.foot).dot(p.normal);
+            (sum + p.weight * offset * offset, weight + p.weight)
+        });
+        if weight > 0.0 { sum / weight } else { 0.0 }
+    }
+}
+
+/// The cuts (stream offsets) at which [`find`] measures a stream of
+/// `len` bytes over `samples` samples: every pass end and log-spaced cuts
+/// from the first byte, as many as [`CUT_WORK`] allows.
+fn cuts(len: usize, samples: usize, pass_ends: &[usize]) -> Vec<usize> {
+    let count = (CUT_WORK / samples.max(1)).max(MIN_CUTS);
+    let ratio = (len.max(2) as f64).powf(1.0 / count as f64);
+    let mut cuts: Vec<usize> = (0..=count)
+        .map(|k| (ratio.powi(k as i32).round() as usize).min(len))
+        .chain(pass_ends.iter().copied().filter(|&e| e <= len))
+        .chain([len])
+        .collect();
+    cuts.sort_unstable();
+    cuts.dedup();
+    cuts
+}
+
+/// The holds of `compressed` (a complete container without holds): its
+/// stream decoded at [`cuts`], measured with `probes`.
+pub(crate) fn find(compressed: &Compressed, probes: &Probes) -> Vec<[u32; 2]> {
+    let start = compressed.header_bytes + compressed.base_bytes;
+    let ends: Vec<usize> = compressed.pass_ends.iter().map(|e| e - start).collect();
+    let samples = compressed.quantized.len();
+    let len = compressed.bytes.len() - start;
+    let cuts = cuts(len, samples, &ends);
+    let rise = if len >= LONG_STREAM { RISE_LONG } else { RISE };
+    select(&cuts, &errors(compressed, probes, &cuts), rise)
+}
+
+/// The error of `compressed` at each of the stream cuts `cuts` (ascending),
+/// as a decoder sees them (holds and all).
+fn errors(compressed: &Compressed, probes: &Probes, cuts: &[usize]) -> Vec<f64> {
+    measure_cuts(compressed, cuts, |values| {
+        probes.error(&compressed.quantizer, values)
+    })
+    .expect("the encoder's own bytes")
+}
+
+/// Holds from the errors at the cuts: from the best cut so far to the
+/// first later cut at least as good, wherever a cut in between is worse
+/// by more than the factor `rise`; then joined where that loses little
+/// ([`JOIN`]).
+fn select(cuts: &[usize], errors: &[f64], rise: f64) -> Vec<[u32; 2]> {
+    // Each hold with the error at its start.
+    let mut holds: Vec<([u32; 2], f64)> = Vec::new();
+    let mut hold = |from: usize, to: usize| {
+        let error = errors[from];
+        // Stream offsets fit 32 bits: the container's holds are u32.
+        let span = [cuts[from], cuts[to]].map(|c| u32::try_from(c).unwrap_or(u32::MAX));
+        match holds.last_mut() {
+            // A hold costs 2 to 10 header bytes, which every cut pays; the
+            // cuts between two holds whose starts are nearly as good gain
+            // little over the first start. Still monotone: the joined
+            // hold's end is at least as good as both starts.
+            Some((last, last_error)) if *last_error <= error * JOIN => last[1] = span[1],
+            _ => holds.push((span, error)),
+        }
+    };
+    let mut best = 0;
+    let mut rising = false;
+    for (i, &e) in errors.iter().enumerate() {
+        if e <= errors[best] {
+            if rising {
+                hold(best, i);
+            }
+            best = i;
+            rising = false;
+        } else if e > errors[best] * rise {
+            rising = true;
+        }
+    }
+    if rising {
+        // The whole stream decodes whole, whatever its error.
+        hold(best, cuts.len() - 1);
+    }
+    holds.into_iter().map(|(span, _)| span).collect()
+}
+
+/// Two holds are joined when the first one's start errs by at most this
+/// factor (0.05 dB) more than the second one's.
+const JOIN: f64 = 1.011_579_454_1;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::codec::{Decoder, EncodeOptions, compress};
+    use crate::container::Limits;
+
+    /// Largest rise of each error over the smallest before it, as a factor.
+    fn worst_rise(errors: &[f64]) -> f64 {
+        let mut best = f64::INFINITY;
+        let mut worst = 1.0f64;
+        for &e in errors {
+            worst = worst.max(e / best);
+            best = best.min(e);
+        }
+        worst
+    }
+
+    /// A stream whose cuts get worse for a while (the sphere's do, by far
+    /// more than [`RISE`]) gets holds, and then no cut the encoder measures
+    /// is worse than a shorter one by more than [`RISE`]; cuts inside a
+    /// hold decode exactly as its start; the stream is the same.
+    #[test]
+    fn with_holds_no_cut_is_worse_than_a_shorter_one() {
+        let mesh = qm_lift::synthetic::bumpy_sphere(4);
+        let probes = Probes::on_surface(&mesh);
+        let plain = compress(&mesh, &EncodeOptions::DEFAULT.with_holds(false)).unwrap();
+        let held = compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
+        let stream = |c: &Compressed| c.bytes[c.header_bytes + c.base_bytes..].to_vec();
+        assert_eq!(stream(&plain), stream(&held));
+        // At the cuts the encoder measures (every byte at first, then
+        // log-spaced).
+        let start = plain.header_bytes + plain.base_bytes;
+        let ends: Vec<usize> = plain.pass_ends.iter().map(|e| e - start).collect();
+        let measured = cuts(stream(&plain).len(), mesh.positions().len(), &ends);
+        let before = worst_rise(&errors(&plain, &probes, &measured));
+        let after = worst_rise(&errors(&held, &probes, &measured));
+        assert!(before > 1.05, "the sphere's cuts rise by {before}");
+        assert!(after <= RISE, "held cuts still rise by {after}");
+        let header = crate::container::read(&held.bytes, &Limits::NONE)
+            .unwrap()
+            .header;
+        assert!(!header.holds.is_empty());
+        let decoder = Decoder::new(&held.bytes, &Limits::NONE).unwrap();
+        let (mut inside, mut start) = (Vec::new(), Vec::new());
+        let s = stream(&held);
+        for &[from, to] in &header.holds {
+            decoder.decode_into(&s[..from as usize], None, None, &mut start);
+            decoder.decode_into(&s[..to as usize - 1], None, None, &mut inside);
+            assert_eq!(inside, start);
+        }
+    }
+
+    /// A byte budget that ends inside a hold ends at its start instead,
+    /// and holds past the budget are dropped: every byte sent is decoded,
+    /// to what the whole stream's decoder makes of that cut.
+    #[test]
+    fn a_budget_sends_only_bytes_that_are_decoded() {
+        let mesh = qm_lift::synthetic::bumpy_sphere(4);
+        let full = compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
+        let read = |bytes: &[u8]| crate::container::read(bytes, &Limits::NONE).unwrap().header;
+        let holds = read(&full.bytes).holds;
+        let [from, to] = *holds.iter().max_by_key(|h| h[1] - h[0]).unwrap();
+        assert!(to - from > 64 && holds.len() > 2, "{holds:?}");
+        let start = full.header_bytes + full.base_bytes;
+        let budget = start + (from + to) as usize / 2;
+        let cut = compress(&mesh, &EncodeOptions::DEFAULT.with_max_bytes(Some(budget))).unwrap();
+        let header = read(&cut.bytes);
+        let n = cut.bytes.len() - (cut.header_bytes + cut.base_bytes);
+        assert!(cut.bytes.len() < budget && n == from as usize, "{n}");
+        assert_eq!(header.hold_cut(n), n);
+        assert!(header.holds.len() < holds.len());
+        assert!(header.holds.iter().all(|&[f, _]| (f as usize) < n));
+        let decode = |bytes: &[u8]| {
+            let d = Decoder::new(bytes, &Limits::NONE).unwrap();
+            let mut values = Vec::new();
+            d.decode_into(&bytes[d.stream_start()..], None, None, &mut values);
+            values
+        };
+        assert_eq!(decode(&cut.bytes), decode(&full.bytes[..start + n]));
+    }
+
+    #[test]
+    fn holds_span_each_rise_from_the_best_cut_to_recovery() {
+        let cuts = [1, 2, 3, 4, 5, 6, 7, 8];
+        let errors = [9.0, 5.0, 6.0, 7.0, 4.0, 4.01, 3.0, 3.5];
+        // 2..5 rises by 40%: held; 5..6 by 0.25%: not; 7..8 never recovers.
+        assert_eq!(select(&cuts, &errors, RISE), vec![[2, 5], [7, 8]]);
+        // Holds from 10 and from 30 start 0.04 dB apart: joined; the one
+        // from 50 starts 0.3 dB lower: not.
+        let cuts = [10, 20, 30, 40, 50, 60, 70];
+        let errors = [1.01, 1.1, 1.0, 1.1, 0.93, 1.0, 0.9];
+        assert_eq!(select(&cuts, &errors, RISE), vec![[10, 50], [50, 70]]);
+        assert!(select(&cuts, &[3.0, 2.0, 1.0], RISE).is_empty());
+    }
+
+    #[test]
+    fn cuts_cover_the_stream_and_its_pass_ends() {
+        let c = cuts(10_000, 1 << 20, &[17, 5_000]);
+        assert_eq!((c[0], c[c.len() - 1]), (1, 10_000));
+        assert!(c.contains(&17) && c.contains(&5_000));
+        assert!(c.len() > MIN_CUTS && c.windows(2).all(|w| w[0] < w[1]));
+        // A small mesh gets a cut at nearly every byte.
+        assert_eq!(cuts(300, 64, &[]).len(), 300);
+    }
+}

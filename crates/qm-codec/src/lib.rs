@@ -1,0 +1,30 @@
+//! The `.qm` container and the codec driver.
+//!
+//! [`compress`] turns a [`qm_lift::SemiRegularMesh`] into the bytes of a `.qm`
+//! file (header, base mesh, embedded stream; see [`container`]) and
+//! [`decompress`] turns any prefix of those bytes that contains the base mesh
+//! back into a mesh; [`Decoder`] does so for a growing stream, resuming from
+//! its last complete pass. The encoder's [`holds`] keep a longer cut from
+//! decoding worse than a shorter one.
+//!
+//! This crate builds on `qm-lift`, `qm-tree` and `qm-ezw` only: it knows
+//! nothing of mesh files or remeshing.
+//!
+//! Main types: [`EncodeOptions`], [`Compressed`], [`DecodeOptions`],
+//! [`Decompressed`], [`container::Header`], [`Error`].
+
+mod basecode;
+mod codec;
+pub mod container;
+mod error;
+pub mod holds;
+
+pub use codec::{
+    AUTO_CUTS, AUTO_MIN_GAIN_DB, Compressed, DecodeOptions, DecodeStatus, Decoder, Decompressed,
+    EncodeOptions, Frames, compress, compress_probed, decompress,
+};
+pub use container::Limits;
+pub use error::{Error, Result};
+pub use holds::Probes;
+pub use qm_ezw::{self, Contexts, Weighting};
+pub use qm_lift::{self, UpdateRule};

@@ -1,0 +1,395 @@
+//! `cargo xtask corpus`: writes the malformed `.qm` files of
+//! `tests/corrupt/` anew from one valid stream, and prints their rows of
+//! `tests/corrupt/README.md`.
+//!
+//! The valid stream is `assets/quad/holed_grid_l4.obj` compressed at 10 bits
+//! with the defaults. Each file changes one thing; where a field is changed
+//! on purpose, the checksum over it is recomputed so that the check behind
+//! the checksum is reached. Each file's expected error fragment is checked
+//! against what the decoder says before the file is written.
+
+use std::path::Path;
+
+use qm::codec::container::{self, Header, MAGIC};
+
+/// A valid stream, split into its sections.
+struct Valid {
+    bytes: Vec<u8>,
+    header: Header,
+    /// Bytes of magic, version, length, header and its checksum.
+    header_bytes: usize,
+    /// Bytes of the base section with its length and checksum.
+    base_bytes: usize,
+}
+
+impl Valid {
+    fn new() -> Result<Valid, String> {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/quad/holed_grid_l4.obj");
+        let mesh = qm::read_mesh(path).map_err(|e| e.to_string())?;
+        let prepared = qm::detect(&mesh).map_err(|e| e.to_string())?;
+        let options = qm::EncodeOptions::DEFAULT.with_bits(10);
+        let bytes = qm::codec::compress(&prepared.mesh, &options)
+            .map_err(|e| e.to_string())?
+            .bytes;
+        let c = container::read(&bytes, &qm::Limits::DEFAULT).map_err(|e| e.to_string())?;
+        let (header, header_bytes, base_bytes) = (c.header, c.header_bytes, c.base_bytes);
+        Ok(Valid {
+            bytes,
+            header,
+            header_bytes,
+            base_bytes,
+        })
+    }
+
+    /// The raw base section (without its length and checksum).
+    fn base(&self) -> &[u8] {
+        &self.bytes[self.header_bytes + 4..self.header_bytes + self.base_bytes - 4]
+    }
+
+    /// The stream after the base section.
+    fn stream(&self) -> &[u8] {
+        &self.bytes[self.header_bytes + self.base_bytes..]
+    }
+
+    /// The header's raw bytes (fields and holds, without the framing).
+    fn header_raw(&self) -> &[u8] {
+        &self.bytes[7..self.header_bytes - 4]
+    }
+
+    /// This stream with header `h` (fields written as they are, unchecked)
+    /// and a valid header checksum.
+    fn with_header(&self, h: &Header) -> Vec<u8> {
+        let mut raw = bincode::serde::encode_to_vec(h, bincode::config::standard())
+            .expect("a header encodes");
+        let mut end = 0;
+        let holds: Vec<[u32; 2]> = (h.holds.iter())
+            .map(|&[from, to]| {
+                let gap = from.wrapping_sub(end);
+                end = to;
+                [gap, to.wrapping_sub(from)]
+            })
+            .collect();
+        raw.extend(bincode::serde::encode_to_vec(&holds, bincode::config::standard()).unwrap());
+        self.with_header_raw(container::VERSION, &raw)
+    }
+
+    /// This stream with version byte `version`, raw header bytes `raw` and
+    /// a valid header checksum.
+    fn with_header_raw(&self, version: u8, raw: &[u8]) -> Vec<u8> {
+        let mut out = MAGIC.to_vec();
+        out.push(version);
+        out.extend_from_slice(&(raw.len() as u16).to_le_bytes());
+        out.extend_from_slice(raw);
+        out.extend_from_slice(&crc32fast::hash(&out).to_le_bytes());
+        out.extend_from_slice(&self.bytes[self.header_bytes..]);
+        out
+    }
+
+    /// This stream with base section `base` (its length and checksum
+    /// valid).
+    fn with_base(&self, base: &[u8]) -> Vec<u8> {
+        let mut out = self.bytes[..self.header_bytes].to_vec();
+        out.extend_from_slice(&(base.len() as u32).to_le_bytes());
+        out.extend_from_slice(base);
+        out.extend_from_slice(&crc32fast::hash(base).to_le_bytes());
+        out.extend_from_slice(self.stream());
+        out
+    }
+
+    /// This stream with byte `at` xored with `mask`.
+    fn flipped(&self, at: usize, mask: u8) -> Vec<u8> {
+        let mut out = self.bytes.clone();
+        out[at] ^= mask;
+        out
+    }
+}
+
+/// One corpus file: name, what is wrong, the bytes, the expected fragment.
+struct Case {
+    file: &'static str,
+    what: String,
+    bytes: Vec<u8>,
+    fragment: String,
+}
+
+fn cases(v: &Valid) -> Vec<Case> {
+    let h = &v.header;
+    let hb = v.header_bytes;
+    let base_len = v.base().len();
+    let header = |f: &dyn Fn(&mut Header)| {
+        let mut h = h.clone();
+        f(&mut h);
+        v.with_header(&h)
+    };
+    let case = |file, what: &str, bytes, fragment: &str| Case {
+        file,
+        what: what.to_string(),
+        bytes,
+        fragment: fragment.to_string(),
+    };
+    let mut crlf = b"\x89QM\r\n".to_vec();
+    crlf.extend_from_slice(&v.bytes[4..]);
+    let mut zip = b"PK\x03\x04".to_vec();
+    zip.extend_from_slice(&v.bytes[4..]);
+    let mut trailing = v.header_raw().to_vec();
+    trailing.extend_from_slice(&[0, 0, 0]);
+    let mut huge_header = v.bytes.clone();
+    huge_header[5..7].copy_from_slice(&u16::MAX.to_le_bytes());
+    let mut huge_base = v.bytes.clone();
+    huge_base[hb..hb + 4].copy_from_slice(&u32::MAX.to_le_bytes());
+    vec![
+        case(
+            "qm-empty.qm",
+            "zero bytes",
+            Vec::new(),
+            "0 bytes, at least 4 needed",
+        ),
+        case(
+            "qm-magic-only.qm",
+            "only the four magic bytes",
+            MAGIC.to_vec(),
+            "4 bytes, at least 5 needed",
+        ),
+        case(
+            "qm-bad-magic.qm",
+            "a zip signature instead of the magic",
+            zip,
+            "bad magic bytes",
+        ),
+        case(
+            "qm-text-mode-crlf.qm",
+            "the magic's newline became CR LF",
+            crlf,
+            "bad magic bytes",
+        ),
+        case(
+            "qm-version-5.qm",
+            "version byte 5, as development builds wrote before the published format (header checksum valid)",
+            v.with_header_raw(5, v.header_raw()),
+            "format version 5 is not supported",
+        ),
+        case(
+            "qm-version-2.qm",
+            "version byte 2, a version that does not exist yet (header checksum valid)",
+            v.with_header_raw(2, v.header_raw()),
+            "format version 2 is not supported",
+        ),
+        case(
+            "qm-header-frames-12.qm",
+            "frame kind 12 (0 to 11 exist)",
+            header(&|h| h.frames = 12),
+            "unknown frame kind 12",
+        ),
+        case(
+            "qm-header-normal-bits-9.qm",
+            "normal weight of 9 bits",
+            header(&|h| h.normal_bits = 9),
+            "normal weight of 9 bits",
+        ),
+        case(
+            "qm-header-flag-0x40.qm",
+            "reserved header flag bit 6 set",
+            header(&|h| h.flags |= 0x40),
+            "unknown header flags 0x40",
+        ),
+        case(
+            "qm-header-flag-0x20.qm",
+            "reserved header flag bit 5 set (development builds' neighbour-context flag)",
+            header(&|h| h.flags |= 0x20),
+            "unknown header flags 0x20",
+        ),
+        case(
+            "qm-header-empty-hold.qm",
+            "one hold, empty: `[5, 5]`",
+            header(&|h| h.holds = vec![[5, 5]]),
+            "hold [5, 5] after one ending at 0",
+        ),
+        case(
+            "qm-cut-in-header.qm",
+            "cut after 30 bytes, inside the header",
+            v.bytes[..30].to_vec(),
+            "truncated inside the header",
+        ),
+        case(
+            "qm-cut-before-base-length.qm",
+            "cut right after the header checksum",
+            v.bytes[..hb].to_vec(),
+            &format!("at least {} needed", hb + 4),
+        ),
+        case(
+            "qm-cut-in-base.qm",
+            "cut inside the base section",
+            v.bytes[..hb + 4 + base_len / 2].to_vec(),
+            "truncated inside the header or base mesh",
+        ),
+        case(
+            "qm-cut-in-base-crc.qm",
+            "cut inside the base checksum",
+            v.bytes[..hb + 4 + base_len + 2].to_vec(),
+            &format!("at least {} needed", hb + base_len + 8),
+        ),
+        case(
+            "qm-header-bit-flipped.qm",
+            "one bit of the quantization origin flipped",
+            v.flipped(7 + 6 + 3, 0x10),
+            "the header is corrupt",
+        ),
+        case(
+            "qm-header-crc-flipped.qm",
+            "a byte of the header checksum flipped",
+            v.flipped(hb - 2, 0x01),
+            "the header is corrupt",
+        ),
+        case(
+            "qm-header-length-huge.qm",
+            "header length 65535",
+            huge_header,
+            "at least 65542 needed",
+        ),
+        case(
+            "qm-header-length-zero.qm",
+            "header length 0, checksum valid",
+            v.with_header_raw(container::VERSION, &[]),
+            "malformed stream: header",
+        ),
+        case(
+            "qm-header-trailing-bytes.qm",
+            "three extra bytes in the header, checksum valid",
+            v.with_header_raw(container::VERSION, &trailing),
+            "header: 3 trailing bytes",
+        ),
+        case(
+            "qm-header-bits-0.qm",
+            "0 quantization bits",
+            header(&|h| h.bits = 0),
+            "0 quantization bits",
+        ),
+        case(
+            "qm-header-bits-30.qm",
+            "30 quantization bits",
+            header(&|h| h.bits = 30),
+            "30 quantization bits",
+        ),
+        case(
+            "qm-header-level-13.qm",
+            "subdivision level 13",
+            header(&|h| h.level = 13),
+            "subdivision level is 13",
+        ),
+        case(
+            "qm-header-update-9.qm",
+            "update rule 9",
+            header(&|h| h.update = 9),
+            "unknown update rule 9",
+        ),
+        case(
+            "qm-header-passes-above-planes.qm",
+            "9 passes of 7 planes",
+            header(&|h| (h.passes, h.planes) = (9, 7)),
+            "9 passes of 7 planes",
+        ),
+        case(
+            "qm-header-step-nan.qm",
+            "quantization step NaN",
+            header(&|h| h.step = f64::NAN),
+            "not finite",
+        ),
+        case(
+            "qm-header-step-zero.qm",
+            "quantization step 0",
+            header(&|h| h.step = 0.0),
+            "quantization origin or step",
+        ),
+        case(
+            "qm-header-origin-infinite.qm",
+            "infinite origin",
+            header(&|h| h.origin[1] = f64::INFINITY),
+            "not finite",
+        ),
+        case(
+            "qm-header-base-vertices-huge.qm",
+            "2^32-1 base vertices",
+            header(&|h| h.base_vertices = u32::MAX),
+            "above the limit",
+        ),
+        case(
+            "qm-header-base-faces-huge.qm",
+            "2^23 base faces (the default limit is 2^22)",
+            header(&|h| h.base_faces = 1 << 23),
+            "above the limit",
+        ),
+        case(
+            "qm-header-samples-above-limit.qm",
+            "100 base faces at level 12",
+            header(&|h| (h.base_faces, h.level) = (100, 12)),
+            "sample count",
+        ),
+        case(
+            "qm-header-vertex-count-mismatch.qm",
+            "header says one base vertex more than the base section holds",
+            header(&|h| h.base_vertices += 1),
+            "base mesh",
+        ),
+        case(
+            "qm-base-bit-flipped.qm",
+            "one bit of the base section flipped",
+            v.flipped(hb + 4 + base_len / 2, 0x04),
+            "the base mesh is corrupt",
+        ),
+        case(
+            "qm-base-crc-flipped.qm",
+            "one bit of the base checksum flipped",
+            v.flipped(hb + 4 + base_len + 1, 0x08),
+            "the base mesh is corrupt",
+        ),
+        case(
+            "qm-base-length-huge.qm",
+            "base section length 2^32-1",
+            huge_base,
+            "base section length",
+        ),
+        case(
+            "qm-base-truncated-with-valid-crc.qm",
+            "base section cut to 20 bytes, checksum valid",
+            v.with_base(&v.base()[..20]),
+            "malformed stream: base mesh",
+        ),
+    ]
+}
+
+/// Writes the files into `tests/corrupt/` and prints their table rows.
+pub fn run(args: &[String]) -> Result<(), String> {
+    if !args.is_empty() {
+        return Err("usage: cargo xtask corpus".into());
+    }
+    let valid = Valid::new()?;
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/corrupt");
+    println!(
+        "valid stream: {} bytes (header {}, base {}, stream {})",
+        valid.bytes.len(),
+        valid.header_bytes,
+        valid.base_bytes,
+        valid.stream().len()
+    );
+    let mut wrong = Vec::new();
+    for c in cases(&valid) {
+        let said = match qm::decode(&c.bytes, &qm::DecodeOptions::default()) {
+            Ok(_) => "decodes".to_string(),
+            Err(e) => e.to_string(),
+        };
+        if !said.contains(&c.fragment) {
+            wrong.push(format!(
+                "{}: expected `{}`, got `{said}`",
+                c.file, c.fragment
+            ));
+        }
+        std::fs::write(dir.join(c.file), &c.bytes).map_err(|e| format!("{}: {e}", c.file))?;
+        println!("| `{}` | {} | `{}` |", c.file, c.what, c.fragment);
+        eprintln!("  {}: {said}", c.file);
+    }
+    if wrong.is_empty() {
+        Ok(())
+    } else {
+        Err(wrong.join("\n"))
+    }
+}
