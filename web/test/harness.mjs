@@ -13,7 +13,7 @@ const target = process.env.CARGO_TARGET_DIR
   ? path.resolve(root, process.env.CARGO_TARGET_DIR)
   : path.join(root, 'target');
 
-// Release builds: `cargo build --release -p qm -p qm-wasm --examples` (web/build.sh does not).
+// Release builds: `cargo build --release -p qm-cli -p qm-wasm --bins --examples` (web/build.sh does not).
 export const bins = {
   qm: process.env.QM_BIN ?? path.join(target, 'release', 'qm'),
   reference: path.join(target, 'release', 'examples', 'reference'),

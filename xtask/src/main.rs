@@ -1,4 +1,4 @@
-//! Experiments behind the README's figures: `cargo xtask <task>`.
+//! Experiments behind the figures in the README and `docs/`: `cargo xtask <task>`.
 //!
 //! - `pass-table [MESH ...]`: for each mesh (default: the bundled quad
 //!   meshes), compress it losslessly and decode 2, 4, ..., 12 passes and the

@@ -61,7 +61,7 @@ pub struct ModelResult {
     pub full_bytes: usize,
     /// Table 1: coefficient bytes and PSNR per entry of [`PASSES`].
     pub passes: Vec<(u32, usize, f64)>,
-    /// The stream's holds (stream offsets; none before format version 4).
+    /// The stream's holds (stream offsets).
     pub holds: Vec<[u32; 2]>,
     pub points: Vec<Point>,
     /// `None` when Draco was not run on this model, with the reason.

@@ -49,12 +49,12 @@ enum Command {
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=qm::lift::MAX_LEVEL as i64))]
         level: Option<u32>,
         /// Place the remeshed samples so that their details are normal
-        /// (a normal mesh, see the README; default: on).
+        /// (a normal mesh, see docs/normal-placement.md; default: on).
         #[arg(long, value_name = "on|off", value_parser = on_off)]
         normal_remesh: Option<bool>,
         /// Code the details in world axes, the three coordinates alike,
         /// instead of normal first in local frames (can suit dense noisy
-        /// scans; see the README).
+        /// scans; see docs/frames.md).
         #[arg(long)]
         no_frames: bool,
         /// Local frames take their normals from the parent quads from this
@@ -66,7 +66,7 @@ enum Command {
         /// Write no holds (default: the encoder decodes its stream at many
         /// cuts and makes a cut that would decode worse than a shorter one
         /// decode as the shorter one; costs encoding time and a few header
-        /// bytes per hold; see the README).
+        /// bytes per hold; see docs/holds.md).
         #[arg(long)]
         no_holds: bool,
         /// No progress or summary output.
@@ -85,7 +85,7 @@ enum Command {
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=qm::lift::MAX_LEVEL as i64))]
         level: Option<u32>,
         /// Place the remeshed samples so that their details are normal
-        /// (a normal mesh, see the README; default: on).
+        /// (a normal mesh, see docs/normal-placement.md; default: on).
         #[arg(long, value_name = "on|off", value_parser = on_off)]
         normal_remesh: Option<bool>,
         /// No progress or summary output.

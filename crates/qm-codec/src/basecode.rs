@@ -1,7 +1,6 @@
-//! The base section of format versions 2 and 3: base faces and level-0
-//! values, predicted and arithmetic-coded. In version 3 the values are the
-//! high parts `value >> k` (the stream carries the low `k` bits); the same
-//! prediction then works on the coarse values.
+//! The base section: base faces and level-0 values, predicted and
+//! arithmetic-coded. The values are the high parts `value >> k` (the stream
+//! carries the low `k` bits); the prediction works on those.
 //!
 //! Every number goes through the adaptive binary range coder of the stream
 //! ([`qm_ezw::BitWriter`]) as a signed Exp-Golomb code whose bits all have

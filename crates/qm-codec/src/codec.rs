@@ -3,8 +3,7 @@
 //! Encoding quantizes the samples, lifts them, gathers the details into
 //! zerotree order and codes them in bit planes; the base vertices' level-0
 //! values go into the base section, all but their low bits, which the bit
-//! planes carry with the details' bits of the same weight (format version
-//! 3; version 2 kept them whole in the base section). Decoding reverses each
+//! planes carry with the details' bits of the same weight. Decoding reverses each
 //! step on whatever prefix of the stream is present, base values with
 //! missing low bits at the centre of what is left.
 
@@ -45,8 +44,9 @@ pub struct EncodeOptions {
 
 /// How the encoder expresses the details.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum Frames {
-    /// World axes (the version 1 coding).
+    /// World axes, the three coordinates alike.
     Off,
     /// Local frames whose normals come from the parent quads from this
     /// level on (3 to `MAX_LEVEL + 1`), from the level `l - 1` quads below.

@@ -4,11 +4,10 @@
 //! A bit-plane pass refines the coefficients one tree after another. With
 //! the update step every wavelet has zero mean, so the errors of a whole
 //! region's coefficients, of one sign, cancel; a pass that has refined half
-//! of them leaves errors of both signs, which do not (README, "Rate and
-//! distortion"). Inside such a pass the surface moves away from the input
+//! of them leaves errors of both signs, which do not (`docs/holds.md`). Inside such a pass the surface moves away from the input
 //! for a while. The encoder sees this: it decodes its own stream at many
 //! cuts, measures each against the surface with [`Probes`], and writes a
-//! *hold* `[from, to]` into the header (format version 4) wherever the cuts
+//! *hold* `[from, to]` into the header wherever the cuts
 //! after `from` are worse than `from` until `to`. A decoder given a cut
 //! inside a hold decodes its first `from` bytes instead
 //! ([`crate::container::Header::hold_cut`]), so the error never grows with
@@ -57,7 +56,7 @@ pub const MIN_CUTS: usize = 24;
 /// (0.1 dB) for a hold to pay its header bytes. At 0.02 dB cc_cube's
 /// header grew to 177 bytes instead of 111 (on a 2% grid of prefixes, 65
 /// dB at 291 bytes instead of 225), for a largest measured fall of 0.025
-/// dB instead of 0.07 (README, "Holds").
+/// dB instead of 0.07 (`docs/holds.md`).
 const RISE: f64 = 1.023_292_992_3;
 
 /// The rise a hold needs in a stream of [`LONG_STREAM`] bytes or more

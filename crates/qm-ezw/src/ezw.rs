@@ -66,8 +66,8 @@
 //! crease, an ear, a rough patch of a scan), which a tree alone sees only
 //! through the parent and the siblings. Measured on the development models
 //! (`cargo xtask ab --a contexts=tree`): +0.30 to +1.18 dB at equal bytes
-//! from 60 to 78 dB, lossless files 4 to 6% smaller; see the README, which
-//! also has what it costs in speed.
+//! from 60 to 78 dB, lossless files 4 to 6% smaller; `docs/contexts.md`
+//! has what it costs in speed.
 //!
 //! **Reconstruction.** An unresolved coefficient is put at the centre of its
 //! uncertainty interval, so more bits never make the expected error larger
@@ -151,9 +151,11 @@ pub const MAX_BASE_BITS: u32 = 30;
 
 /// Which contexts model the bits (see the module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub enum Contexts {
     /// Tree contexts only: the parent, the node's other coordinates and its
-    /// earlier siblings (`.qm` format versions 1 to 4).
+    /// earlier siblings (for comparisons; the `.qm` format uses
+    /// [`Contexts::Neighbours`]).
     Tree,
     /// The tree contexts and the same-level neighbours.
     #[default]
@@ -864,7 +866,7 @@ impl State {
     /// significant before the pass, then its significance and zerotree bits.
     /// (Against the classic order, all refinement after the whole dominant
     /// phase, this moves the small error rises inside a pass around without
-    /// removing them; see the README.)
+    /// removing them; see `docs/passes.md`.)
     fn pass<C: Coder, O: Oracle>(
         &mut self,
         tree: &ZeroTree,

@@ -47,13 +47,13 @@ pub enum MeshError {
         problem: Problem,
     },
     /// The environment: reading, writing or renaming the file failed.
-    #[error("{file}: {source}")]
+    #[error("{file}: {cause}")]
     Io {
         /// The file name given by the caller.
         file: String,
-        /// The underlying error.
-        #[source]
-        source: io::Error,
+        /// The underlying error (in the message, so not also a `source()`:
+        /// an error chain shows it once).
+        cause: io::Error,
     },
 }
 
@@ -66,10 +66,10 @@ impl MeshError {
         }
     }
 
-    pub(crate) fn io(file: &str, source: io::Error) -> Self {
+    pub(crate) fn io(file: &str, cause: io::Error) -> Self {
         MeshError::Io {
             file: file.to_owned(),
-            source,
+            cause,
         }
     }
 

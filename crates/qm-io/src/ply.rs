@@ -841,23 +841,4 @@ mod tests {
             }
         }
     }
-
-    /// The one test on a large real file, igea.ply (binary tristrips). It lives
-    /// outside the repository, in `shared/models` beside the checkout
-    /// (`../../../shared/models` from this crate), so it is skipped when absent.
-    #[test]
-    fn igea_from_shared_models() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../../shared/models/igea.ply");
-        if !path.exists() {
-            eprintln!("skipped: {} not found", path.display());
-            return;
-        }
-        let start = std::time::Instant::now();
-        let mesh = crate::read_mesh(&path).unwrap();
-        eprintln!("igea.ply: read in {:?}", start.elapsed());
-        assert_eq!(mesh.positions.len(), 134_345);
-        assert_eq!(mesh.face_count(), 268_686);
-        assert!(mesh.all_faces_have(3));
-    }
 }

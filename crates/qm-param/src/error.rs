@@ -9,7 +9,7 @@ use crate::distance::Side;
 ///
 /// Sorted by who is responsible: the input mesh, the caller, an exceeded
 /// limit, or a bug in this crate.
-#[derive(Debug, Clone, PartialEq, Eq, ThisError)]
+#[derive(Debug, Clone, PartialEq, ThisError)]
 #[non_exhaustive]
 pub enum Error {
     /// The mesh has no faces at all.
@@ -23,7 +23,7 @@ pub enum Error {
     UnusedVertex { vertex: u32 },
     /// The quads do not form a consistently oriented, edge-manifold mesh.
     #[error("not a valid oriented edge-manifold quad mesh: {0}")]
-    InvalidMesh(#[source] qm_lift::Error),
+    InvalidMesh(qm_lift::Error),
     /// Not even one step of quad subdivision can be undone.
     #[error(
         "the quad mesh has no subdivision connectivity (it is not a quad-split of a coarser mesh); it needs remeshing"
@@ -54,7 +54,7 @@ pub enum Error {
     /// Building the semi-regular mesh failed after detection succeeded: a
     /// position is not finite, or the mesh exceeds a limit of `qm-lift`.
     #[error("building the semi-regular mesh failed: {0}")]
-    Lift(#[from] qm_lift::Error),
+    Lift(qm_lift::Error),
     /// A face of the mesh given to [`crate::clean::clean`] refers to a vertex
     /// the mesh does not have.
     #[error("face {face} refers to missing vertex {vertex}")]
@@ -63,13 +63,171 @@ pub enum Error {
     /// has a NaN or infinite coordinate.
     #[error("vertex {vertex} is not finite")]
     NonFiniteVertex { vertex: u32 },
-    /// The remesher could not parameterize or resample a component.
-    #[error("remeshing failed: {0}")]
-    Remesh(String),
+    /// The remesher could not make a part of the mesh semi-regular.
+    #[error("remeshing failed: {}{failure}", part.map_or(String::new(), |p| format!("{p} ")))]
+    Remesh {
+        /// The part (connected component after clean-up), when one is to
+        /// blame.
+        part: Option<Part>,
+        /// What went wrong.
+        failure: RemeshFailure,
+    },
     /// A consistency check that this crate guarantees did not hold: a bug here.
     #[error("internal error in qm-param: {0}")]
     Internal(&'static str),
 }
 
+/// A part of the mesh: one connected component after clean-up.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct Part {
+    /// Its index among the cleaned components.
+    pub index: usize,
+    /// Its vertices.
+    pub vertices: usize,
+    /// Its genus (from its Euler characteristic; negative for a part
+    /// that clean-up left odd).
+    pub genus: i64,
+    /// Its boundary loops.
+    pub holes: usize,
+}
+
+impl std::fmt::Display for Part {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "component {} ({} vertices, genus {}, {} holes)",
+            self.index, self.vertices, self.genus, self.holes
+        )
+    }
+}
+
+/// Why the remesher could not make a part semi-regular.
+#[derive(Debug, Clone, PartialEq, ThisError)]
+#[non_exhaustive]
+pub enum RemeshFailure {
+    /// Nothing with area is left after clean-up.
+    #[error("nothing with area left after clean-up")]
+    NothingLeft,
+    /// The part's map onto its square leaves samples far outside the part.
+    #[error(
+        "does not map onto its square: {stray} samples fell outside its bounds (stretch \
+         {stretch:.3e}, {folded} folded triangles); a scan with many small holes or handles \
+         may need repair first"
+    )]
+    DoesNotMap {
+        /// Samples more than a quarter of the part's diagonal outside its
+        /// bounding box.
+        stray: usize,
+        /// The map's stretch.
+        stretch: f64,
+        /// Folded triangles in the map.
+        folded: usize,
+    },
+    /// No square size tried glues the part's cut into a valid base mesh.
+    #[error(
+        "could not glue its cut ({disk_vertices} disk vertices, {boundary_edges} boundary \
+         edges after cutting) into a valid base mesh with {} base quads a side (last problem: \
+         {problem}); a mesh with many holes, handles or split non-manifold edges may need \
+         repair first",
+        sizes.iter().map(usize::to_string).collect::<Vec<_>>().join(", ")
+    )]
+    DoesNotGlue {
+        /// Vertices of the part cut open into a disk.
+        disk_vertices: usize,
+        /// Boundary edges of that disk.
+        boundary_edges: usize,
+        /// The square sizes tried.
+        sizes: Vec<usize>,
+        /// Why the last one did not glue.
+        problem: String,
+    },
+    /// The cut has too many segments to lay out on a square.
+    #[error("its cut has too many segments to lay out on a square")]
+    TooManySegments,
+    /// A linear solve failed, or another step of the remesher (named).
+    #[error("{0}")]
+    Step(String),
+}
+
+/// The message carries the inner error's, so it is not also a `source()`:
+/// an error chain shows each message once.
+impl From<qm_lift::Error> for Error {
+    fn from(e: qm_lift::Error) -> Self {
+        Error::Lift(e)
+    }
+}
+
+impl Error {
+    /// A remesher failure, its part not yet known.
+    pub(crate) fn remesh(failure: RemeshFailure) -> Error {
+        Error::Remesh {
+            part: None,
+            failure,
+        }
+    }
+
+    /// This error, blamed on `part` if it is a remesher failure that names
+    /// none yet.
+    pub(crate) fn in_part(self, part: impl FnOnce() -> Part) -> Error {
+        match self {
+            Error::Remesh {
+                part: None,
+                failure,
+            } => Error::Remesh {
+                part: Some(part()),
+                failure,
+            },
+            other => other,
+        }
+    }
+}
+
 /// Result alias of this crate.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A remesher failure names the part it is blamed on first, once, and
+    /// keeps its kind for callers to match on.
+    #[test]
+    fn remesh_failures_name_their_part_once() {
+        let part = |index| Part {
+            index,
+            vertices: 10,
+            genus: 1,
+            holes: 3,
+        };
+        let e = Error::remesh(RemeshFailure::DoesNotGlue {
+            disk_vertices: 12,
+            boundary_edges: 20,
+            sizes: vec![3, 4],
+            problem: "two edges share both ends".into(),
+        })
+        .in_part(|| part(2))
+        .in_part(|| part(5));
+        let text = e.to_string();
+        assert!(
+            text.starts_with(
+                "remeshing failed: component 2 (10 vertices, genus 1, 3 holes) could not glue \
+                 its cut (12 disk vertices, 20 boundary edges after cutting) into a valid base \
+                 mesh with 3, 4 base quads a side"
+            ),
+            "{text}"
+        );
+        assert!(matches!(
+            e,
+            Error::Remesh {
+                part: Some(Part { index: 2, .. }),
+                failure: RemeshFailure::DoesNotGlue { .. }
+            }
+        ));
+        let plain = Error::remesh(RemeshFailure::NothingLeft).to_string();
+        assert_eq!(
+            plain,
+            "remeshing failed: nothing with area left after clean-up"
+        );
+    }
+}

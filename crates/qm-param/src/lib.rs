@@ -26,9 +26,10 @@ mod quads;
 pub mod remesh;
 mod subdivision;
 mod trimesh;
+mod union_find;
 
 pub use distance::{DistanceOptions, DistanceReport, OneSided, Side, distance};
-pub use error::{Error, Result};
+pub use error::{Error, Part, RemeshFailure, Result};
 pub use qm_io::PolyMesh;
 pub use qm_lift::SemiRegularMesh;
 pub use remesh::{NormalReport, RemeshOptions, RemeshReport, Remeshed, remesh};

@@ -222,3 +222,44 @@ pub fn encode_prepared(
         remeshed: prepared.remeshed.clone(),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each message of an error's chain is shown once: no error repeats
+    /// the message of its `source()`.
+    fn chain_has_no_repeats(e: &Error) {
+        let mut messages = vec![e.to_string()];
+        let mut next = std::error::Error::source(e);
+        while let Some(inner) = next {
+            let text = inner.to_string();
+            assert!(
+                messages.iter().all(|m| !m.contains(&text)),
+                "{text:?} repeats in {messages:?}"
+            );
+            messages.push(text);
+            next = inner.source();
+        }
+    }
+
+    #[test]
+    fn errors_print_once() {
+        let missing = read_mesh("no such file.obj").unwrap_err();
+        assert!(
+            missing.to_string().starts_with("no such file.obj: "),
+            "{missing}"
+        );
+        let cut = decode(&[0x89, b'Q', b'M'], &DecodeOptions::default()).unwrap_err();
+        assert!(cut.is_truncated());
+        let flat = PolyMesh::from_faces(vec![glam(0.0); 3], &[[0, 1, 2]]);
+        let nothing = encode(&flat, &Options::default()).unwrap_err();
+        for e in [missing, cut, nothing] {
+            chain_has_no_repeats(&e);
+        }
+    }
+
+    fn glam(x: f64) -> qm_io::glam::DVec3 {
+        qm_io::glam::DVec3::splat(x)
+    }
+}

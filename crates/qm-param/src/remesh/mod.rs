@@ -36,7 +36,7 @@ use qm_lift::glam::DVec3;
 use qm_lift::{BaseMesh, Layout, SemiRegularMesh};
 
 use crate::clean::{CleanReport, clean};
-use crate::{Error, PolyMesh, Result, TriMesh};
+use crate::{Error, Part, PolyMesh, RemeshFailure, Result, TriMesh};
 
 /// Below this L2 stretch no extra cut is tried.
 const GOOD_STRETCH: f64 = 1.25;
@@ -214,9 +214,7 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     }
     let total_area: f64 = cleaned.components.iter().map(TriMesh::area).sum();
     if cleaned.components.is_empty() || total_area <= 0.0 {
-        return Err(Error::Remesh(
-            "nothing with area left after clean-up".into(),
-        ));
+        return Err(Error::remesh(RemeshFailure::NothingLeft));
     }
     // Never more than MAX_SAMPLES_PER_VERTEX times the input's vertices.
     let target = (options.samples_per_vertex.min(MAX_SAMPLES_PER_VERTEX) * input_vertices as f64)
@@ -234,7 +232,8 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     let mut charts = Vec::new();
     for (c, component) in cleaned.components.iter().enumerate() {
         let k_max = (side(c) / f64::from(1u32 << PART_LEVEL)) as usize;
-        charts.push(chart(component, 3, k_max.max(3), spacing, options)?);
+        let made = chart(component, 3, k_max.max(3), spacing, options);
+        charts.push(made.map_err(|e| e.in_part(|| part(c, component)))?);
     }
     // One level for all, chosen by how many samples it gives the components
     // whose squares fit their share of the target there (small ones may be
@@ -326,14 +325,16 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
         for (c, chart) in charts.iter_mut().enumerate() {
             let want = size(c, level, chart.1.k, room);
             if want > chart.1.k {
-                let map = square::parameterize_k(
+                let grown = square::parameterize_k(
                     &chart.0,
                     &chart.3,
                     want,
                     options.stretch_iterations,
                     Some(&chart.1.divisor),
-                )?;
-                chart.1 = fit(&chart.0, &chart.3, map, options)?;
+                )
+                .and_then(|map| grow_until_glued(&chart.0, &chart.3, map, options));
+                let component = &cleaned.components[c];
+                chart.1 = grown.map_err(|e| e.in_part(|| part(c, component)))?;
             }
         }
     }
@@ -371,8 +372,11 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
                 uncovered: patch.uncovered,
             });
         }
-        let base = BaseMesh::new(base_vertices, faces)
-            .map_err(|e| Error::Remesh(format!("the glued base mesh is invalid: {e}")))?;
+        let base = BaseMesh::new(base_vertices, faces).map_err(|e| {
+            Error::remesh(RemeshFailure::Step(format!(
+                "the glued base mesh is invalid: {e}"
+            )))
+        })?;
         let layout = Layout::new(base, level)?;
         let (mesh, source) = SemiRegularMesh::from_face_grids(layout, &grids, &positions)?;
         // Per sample of the layout.
@@ -441,17 +445,23 @@ fn check_patch(
     if stray == 0 {
         return Ok(());
     }
+    Err(Error::remesh(RemeshFailure::DoesNotMap {
+        stray,
+        stretch: map.stretch,
+        folded: map.flipped,
+    })
+    .in_part(|| part(c, component)))
+}
+
+/// What an error message says of component `c`.
+fn part(c: usize, component: &TriMesh) -> Part {
     let topo = crate::clean::topology(component);
-    Err(Error::Remesh(format!(
-        "component {c} ({} vertices, genus {}, {} holes) does not map onto its square: \
-         {stray} samples fell outside its bounds (stretch {:.3e}, {} folded \
-         triangles); a scan with many small holes or handles may need repair first",
-        component.positions.len(),
-        topo.genus,
-        topo.boundary_loops,
-        map.stretch,
-        map.flipped,
-    )))
+    Part {
+        index: c,
+        vertices: component.positions.len(),
+        genus: topo.genus,
+        holes: topo.boundary_loops,
+    }
 }
 
 /// Samples of a square of `k` base quads a side at `level`: `(k 2^L + 1)^2`.
@@ -459,22 +469,20 @@ fn square_samples(k: usize, level: u32) -> f64 {
     ((k << level) as f64 + 1.0).powi(2)
 }
 
-/// How far [`fit`] grows the square past its first size, try by try: one
-/// base quad at a time up to 8, then 16 and 32.
-const FIT_GROWTH: [usize; 11] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 16, 32];
+/// How far [`grow_until_glued`] grows the square past its first size, try
+/// by try: one base quad at a time up to 8, then 16 and 32.
+const GLUE_GROWTH: [usize; 11] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 16, 32];
 
 /// Gluing a small square can make two base edges share both ends without
 /// being mates, which the base mesh would take for one edge: grow the square
 /// until the glued layout is consistent (checked at level 1, where every base
 /// edge has a midpoint sample). From a first size `K` the sizes asked for
-/// are `K, K + 1, ..., K + 8`, then `K + 16` and `K + 32` ([`FIT_GROWTH`])
+/// are `K, K + 1, ..., K + 8`, then `K + 16` and `K + 32` ([`GLUE_GROWTH`])
 /// (each at least one more than the last size laid out), none above
-/// `4 max(K, 8)`; before, it was every size up to that. A cut that a few
-/// more base quads do not mend is seldom mended by many more (its shape is
-/// then the problem, not the square's size), and each size costs a
-/// parameterization: growing one at a time all the way ran for hours on
-/// scans whose cuts have hundreds of segments.
-fn fit(
+/// `4 max(K, 8)`. A cut that a few more base quads do not mend is seldom
+/// mended by many more (its shape is then the problem, not the square's
+/// size), and each size costs a parameterization.
+fn grow_until_glued(
     disk: &cut::Disk,
     density: &[f64],
     mut map: square::SquareMap,
@@ -494,20 +502,16 @@ fn fit(
             },
         };
         tried.push(map.k);
-        let next = (FIT_GROWTH.get(tried.len()))
+        let next = (GLUE_GROWTH.get(tried.len()))
             .map(|grow| (first + grow).max(map.k + 1))
             .filter(|&k| k <= 4 * first.max(8));
         let Some(next) = next else {
-            let sizes: Vec<String> = tried.iter().map(usize::to_string).collect();
-            return Err(Error::Remesh(format!(
-                "could not glue the cut of a component ({} disk vertices, {} boundary \
-                 edges after cutting) into a valid base mesh with {} base quads a \
-                 side (last problem: {problem}); a mesh with many holes, handles or \
-                 split non-manifold edges may need repair first",
-                disk.positions.len(),
-                disk.boundary.len(),
-                sizes.join(", ")
-            )));
+            return Err(Error::remesh(RemeshFailure::DoesNotGlue {
+                disk_vertices: disk.positions.len(),
+                boundary_edges: disk.boundary.len(),
+                sizes: tried,
+                problem,
+            }));
         };
         map = square::parameterize_k(
             disk,
@@ -584,7 +588,7 @@ fn chart(
         disk = trial_disk;
         map = trial;
     }
-    let map = fit(&disk, &density, map, options)?;
+    let map = grow_until_glued(&disk, &density, map, options)?;
     let cuts = extra.len();
     Ok((disk, map, cuts, density))
 }

@@ -68,7 +68,8 @@
 //! of keeping them cost spot 0.5 to 2.9 dB and fandisk 3.5 to 10 dB of
 //! remesh PSNR, for at most 4% fewer bytes. Measuring the spacing by the
 //! quads' mean side instead of their shortest cost fandisk 3.5 dB (with
-//! a facing cosine of 0.2). The README has the rates and distortions.
+//! a facing cosine of 0.2). `docs/normal-placement.md`
+//! has the rates and distortions.
 //!
 //! The predictions use integer coordinates on a 24-bit grid (a step of
 //! `2^-24` of the box, far below any remesh error) and no update step: the

@@ -14,6 +14,7 @@ use rayon::prelude::*;
 
 use super::cut::Disk;
 use super::square::SquareMap;
+use crate::union_find::UnionFind;
 
 /// One component's part of the semi-regular mesh.
 pub struct Patch {
@@ -31,31 +32,6 @@ pub struct Patch {
     pub triangles: Vec<u32>,
     /// Grid points no triangle covered (filled from a neighbour).
     pub uncovered: usize,
-}
-
-struct UnionFind(Vec<u32>);
-
-impl UnionFind {
-    fn find(&mut self, x: u32) -> u32 {
-        let mut r = x;
-        while self.0[r as usize] != r {
-            r = self.0[r as usize];
-        }
-        let mut x = x;
-        while self.0[x as usize] != r {
-            let next = self.0[x as usize];
-            self.0[x as usize] = r;
-            x = next;
-        }
-        r
-    }
-
-    fn union(&mut self, a: u32, b: u32) {
-        let (a, b) = (self.find(a), self.find(b));
-        if a != b {
-            self.0[a.max(b) as usize] = a.min(b);
-        }
-    }
 }
 
 /// Samples `disk` as laid out by `map` at level `level`; with `fit_rounds`
@@ -95,7 +71,7 @@ pub fn resample(disk: &Disk, map: &SquareMap, level: u32, fit_rounds: usize) -> 
             _ => at(0, big_n - t),
         }
     };
-    let mut uf = UnionFind((0..(side * side) as u32).collect());
+    let mut uf = UnionFind::new(side * side);
     for (s, seg) in map.segments.iter().enumerate() {
         let Some(m) = seg.mate else { continue };
         if m < s {

@@ -35,7 +35,7 @@ use qm_lift::glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
 use super::cut::Disk;
-use crate::{Error, Result};
+use crate::{Error, RemeshFailure, Result};
 
 /// Smallest relative stretch improvement worth another reweighting (each is
 /// a sparse factorization). 2% gives the same maps as 0.5% on the
@@ -314,9 +314,7 @@ fn layout(disk: &Disk, k_min: usize) -> Result<(usize, Vec<Segment>, Vec<f64>)> 
     while !allocate(&mut segs, &lengths, k, &leaves) {
         k += 1;
         if k > 4096 {
-            return Err(Error::Remesh(
-                "the cut has too many segments to lay out".into(),
-            ));
+            return Err(Error::remesh(RemeshFailure::TooManySegments));
         }
     }
     Ok((k, segs, lengths))
@@ -688,7 +686,11 @@ impl<'a> System<'a> {
             .symbolic
             .get_or_init(|| make(pattern).map_err(|e| format!("{e:?}")))
             .as_ref()
-            .map_err(|e| Error::Remesh(format!("factoring the parameterization: {e}")))
+            .map_err(|e| {
+                Error::remesh(RemeshFailure::Step(format!(
+                    "factoring the parameterization: {e}"
+                )))
+            })
     }
 
     /// A direct LU solve of the mean-value system, row `i` as it is:
@@ -709,7 +711,11 @@ impl<'a> System<'a> {
         };
         symbolic
             .factorize(&self.values, &mut self.numeric)
-            .map_err(|i| Error::Remesh(format!("factoring the parameterization: pivot {i}")))?;
+            .map_err(|i| {
+                Error::remesh(RemeshFailure::Step(format!(
+                    "factoring the parameterization: pivot {i}"
+                )))
+            })?;
         symbolic.solve(&self.numeric, rhs.as_mut());
         write_back(&self.index, &rhs, uv);
         Ok(())
@@ -755,7 +761,11 @@ impl<'a> System<'a> {
                 MemStack::new(scratch),
                 Default::default(),
             )
-            .map_err(|e| Error::Remesh(format!("factoring the parameterization: {e:?}")))?;
+            .map_err(|e| {
+                Error::remesh(RemeshFailure::Step(format!(
+                    "factoring the parameterization: {e:?}"
+                )))
+            })?;
         let (operator, b) = MeanValueSystem::new(weights, divisor, &self.index, uv, free);
         let preconditioner = Preconditioner {
             llt,

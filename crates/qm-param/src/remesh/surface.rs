@@ -43,7 +43,7 @@ use parry3d_f64::query::{PointQueryWithLocation, Ray, RayCast};
 use parry3d_f64::shape::TriMesh as ParryMesh;
 use qm_lift::glam::DVec3;
 
-use crate::{Error, Result, TriMesh};
+use crate::{Error, RemeshFailure, Result, TriMesh};
 
 /// Longest walk (a walk that long ends where it is).
 const WALK: usize = 32;
@@ -171,7 +171,11 @@ impl Surface {
             shifted.iter().map(|&p| to_parry(p)).collect(),
             triangles.clone(),
         )
-        .map_err(|e| Error::Remesh(format!("the surface for normal placement: {e:?}")))?;
+        .map_err(|e| {
+            Error::remesh(RemeshFailure::Step(format!(
+                "the surface for normal placement: {e:?}"
+            )))
+        })?;
         // Edge neighbours: each directed edge meets its reverse (the cleaned
         // components are manifold and consistently oriented).
         let mut edges = std::collections::HashMap::with_capacity(3 * triangles.len());

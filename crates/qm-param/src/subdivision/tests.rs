@@ -447,13 +447,10 @@ fn load_obj(path: &Path) -> PolyMesh {
     mesh
 }
 
+/// The bundled quad meshes, made outside the project.
 #[test]
-fn shared_quad_models() {
-    // Skips when the shared model folder is absent (outside the qm work tree).
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models/quad");
-    if !dir.is_dir() {
-        return;
-    }
+fn bundled_quad_models() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/quad");
     for (name, level, base_faces) in [
         ("cc_cube.obj", 5, 6),
         ("cc_dodecahedron.obj", 3, 60),
