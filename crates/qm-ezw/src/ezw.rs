@@ -19,7 +19,7 @@
 //! ([`BASE_EXTRA_BITS`]), and no normal bits. The stream can carry their low
 //! `k` bits ([`encode`] with [`BaseBits`]), at most those whose weighted
 //! plane `b + s0` is a pass (`planes - s0`, [`Weighting::max_base_bits`]),
-//! and the caller stores only `value >> k`; `qm-io` asks for the bits that
+//! and the caller stores only `value >> k`; `qm-codec` asks for the bits that
 //! are noise to its base prediction. Bit `b` of every base value is coded
 //! in the pass of plane `b + s0`, at its very start (level 0 is coarser than
 //! every detail level), vertex by vertex, with one adaptive context per

@@ -28,7 +28,7 @@
 //! (`cargo xtask ab`, 60/65/70/78 dB): parents from level 3 let the bunny
 //! gain +1.2/+1.6/+1.4/+1.1 dB instead of losing 0.5/1.3/1.7/4.0; from level 4
 //! gains up to 1.8 dB more on the smooth models but lets the bunny lose
-//! 0.9 dB; from level 2 lost 0.8 dB on fandisk. The encoder of `qm-io` tries
+//! 0.9 dB; from level 2 lost 0.8 dB on fandisk. The encoder of `qm-codec` tries
 //! 3 and 4 and keeps the better stream; if that is 4, it tries later
 //! levels too and keeps one only if it is clearly better. Once the
 //! coarser levels are exact, so is the frame.
