@@ -303,3 +303,56 @@ fn outputs_get_the_usual_file_mode() {
         assert_eq!(mode(&dir.path().join(made)), mode(&usual), "{made}");
     }
 }
+
+/// Work that needs more memory than `--max-memory` is refused before it
+/// starts, saying what it needs and what the limit is, and writes nothing:
+/// a remesh at a level too fine for the limit, and a decode of a file that
+/// asks for more than the limit.
+#[test]
+fn memory_limits_refuse_work_before_it_starts() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(asset("spot.obj"), dir.path().join("spot.obj")).unwrap();
+    // Level 9 on spot's 81 base quads: 21M samples, 5 GiB by the estimate.
+    let out = qm(
+        &[
+            "compress",
+            "spot.obj",
+            "--level",
+            "9",
+            "--max-memory",
+            "1G",
+            "--quiet",
+        ],
+        dir.path(),
+    );
+    assert_fails_cleanly(
+        &out,
+        "spot.obj",
+        "above the limit of 1024 MiB (--max-memory raises it)",
+    );
+    assert!(!dir.path().join("spot.qm").exists());
+    // The input alone: spot's 5,856 triangles need 14 MiB.
+    let out = qm(
+        &["compress", "spot.obj", "--max-memory", "8M", "--quiet"],
+        dir.path(),
+    );
+    assert_fails_cleanly(&out, "spot.obj", "5856 input triangles");
+    std::fs::copy(asset("quad/cc_cube.obj"), dir.path().join("cube.obj")).unwrap();
+    let out = qm(&["compress", "cube.obj", "--quiet"], dir.path());
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = qm(
+        &["decompress", "cube.qm", "--max-memory", "512K", "--quiet"],
+        dir.path(),
+    );
+    assert_fails_cleanly(&out, "cube.qm", "samples, above the limit of 1 MiB");
+    let out = qm(
+        &["decompress", "cube.qm", "--max-memory", "2M", "--quiet"],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = qm(
+        &["decompress", "cube.qm", "--max-memory", "lots"],
+        dir.path(),
+    );
+    assert_eq!(out.status.code(), Some(2), "bad usage");
+}

@@ -64,18 +64,27 @@ struct Run {
     elapsed: Duration,
 }
 
-/// Runs `qm` in `dir`, killing it after `limit` (a hang then shows as a
-/// missing exit code rather than a stuck test).
+/// The address space a corpus file gets: 1.5 GiB. A file that makes `qm`
+/// ask for more aborts it (signal 6), which the exit-code check catches.
+const CORPUS_ADDRESS_SPACE: u64 = 3 << 29;
+
+/// Runs `qm` in `dir` under an address-space limit of
+/// [`CORPUS_ADDRESS_SPACE`] (util-linux `prlimit`), killing it after
+/// `limit` (a hang then shows as a missing exit code rather than a stuck
+/// test).
 fn run_qm(args: &[&str], dir: &Path, limit: Duration) -> Run {
     let start = Instant::now();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_qm"))
+    let mut child = Command::new("prlimit")
+        .arg(format!("--as={CORPUS_ADDRESS_SPACE}"))
+        .arg("--")
+        .arg(env!("CARGO_BIN_EXE_qm"))
         .args(args)
         .current_dir(dir)
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
-        .expect("qm starts");
+        .expect("prlimit (util-linux) starts qm");
     let mut pipe = child.stderr.take().expect("piped stderr");
     let reader = std::thread::spawn(move || {
         let mut text = String::new();

@@ -3,7 +3,8 @@
 //! `tests/corrupt/README.md`.
 //!
 //! The valid stream is `assets/quad/holed_grid_l4.obj` compressed at 10 bits
-//! with the defaults. Each file changes one thing; where a field is changed
+//! with the defaults; the decompression bombs also start from
+//! `assets/quad/cc_cube.obj` at 16 bits. Each file changes one thing; where a field is changed
 //! on purpose, the checksum over it is recomputed so that the check behind
 //! the checksum is reached. Each file's expected error fragment is checked
 //! against what the decoder says before the file is written.
@@ -23,11 +24,12 @@ struct Valid {
 }
 
 impl Valid {
-    fn new() -> Result<Valid, String> {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/quad/holed_grid_l4.obj");
-        let mesh = qm::read_mesh(path).map_err(|e| e.to_string())?;
+    /// The bundled quad mesh `name` compressed at `bits` with the defaults.
+    fn new(name: &str, bits: u32) -> Result<Valid, String> {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/quad");
+        let mesh = qm::read_mesh(dir.join(name)).map_err(|e| e.to_string())?;
         let prepared = qm::detect(&mesh).map_err(|e| e.to_string())?;
-        let options = qm::EncodeOptions::DEFAULT.with_bits(10);
+        let options = qm::EncodeOptions::DEFAULT.with_bits(bits);
         let bytes = qm::codec::compress(&prepared.mesh, &options)
             .map_err(|e| e.to_string())?
             .bytes;
@@ -110,6 +112,48 @@ struct Case {
     what: String,
     bytes: Vec<u8>,
     fragment: String,
+}
+
+/// Decompression bombs: a few kilobytes whose header asks for gigabytes,
+/// checksums valid. `cube` is cc_cube at 16 bits, `v` the holed grid.
+fn bombs(cube: &Valid, v: &Valid) -> Vec<Case> {
+    let raised = |v: &Valid, f: &dyn Fn(&mut Header)| {
+        let mut h = v.header.clone();
+        f(&mut h);
+        v.with_header(&h)
+    };
+    let case = |file, what: &str, bytes, fragment: &str| Case {
+        file,
+        what: what.to_string(),
+        bytes,
+        fragment: fragment.to_string(),
+    };
+    vec![
+        case(
+            "qm-bomb-level-11.qm",
+            "cc_cube (6 base quads, level 5) with its level raised to 11: 25M samples",
+            raised(cube, &|h| h.level = 11),
+            "needs about 3844 MiB of memory for 25190390 samples, above the limit of 1024 MiB",
+        ),
+        case(
+            "qm-bomb-level-12.qm",
+            "cc_cube with its level raised to 12: 100M samples",
+            raised(cube, &|h| h.level = 12),
+            "sample count is 100712438, above the limit of 67108864",
+        ),
+        case(
+            "qm-bomb-base-faces.qm",
+            "the holed grid (level 4) claiming 100,000 base faces",
+            raised(v, &|h| h.base_faces = 100_000),
+            "above the limit of 1024 MiB",
+        ),
+        case(
+            "qm-bomb-base-vertices.qm",
+            "the holed grid claiming 4,000,000 base vertices",
+            raised(v, &|h| h.base_vertices = 4_000_000),
+            "above the limit of 1024 MiB",
+        ),
+    ]
 }
 
 fn cases(v: &Valid) -> Vec<Case> {
@@ -362,7 +406,8 @@ pub fn run(args: &[String]) -> Result<(), String> {
     if !args.is_empty() {
         return Err("usage: cargo xtask corpus".into());
     }
-    let valid = Valid::new()?;
+    let valid = Valid::new("holed_grid_l4.obj", 10)?;
+    let cube = Valid::new("cc_cube.obj", 16)?;
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/corrupt");
     println!(
         "valid stream: {} bytes (header {}, base {}, stream {})",
@@ -372,7 +417,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
         valid.stream().len()
     );
     let mut wrong = Vec::new();
-    for c in cases(&valid) {
+    for c in cases(&valid).into_iter().chain(bombs(&cube, &valid)) {
         let said = match qm::decode(&c.bytes, &qm::DecodeOptions::default()) {
             Ok(_) => "decodes".to_string(),
             Err(e) => e.to_string(),

@@ -69,6 +69,11 @@ enum Command {
         /// bytes per hold; see docs/holds.md).
         #[arg(long)]
         no_holds: bool,
+        /// Most memory remeshing and encoding may take, e.g. 512M or 8G
+        /// (default 4G); work that would need more is refused before it
+        /// starts.
+        #[arg(long, value_name = "SIZE", value_parser = memory_size)]
+        max_memory: Option<u64>,
         /// No progress or summary output.
         #[arg(long)]
         quiet: bool,
@@ -88,6 +93,11 @@ enum Command {
         /// (a normal mesh, see docs/normal-placement.md; default: on).
         #[arg(long, value_name = "on|off", value_parser = on_off)]
         normal_remesh: Option<bool>,
+        /// Most memory remeshing and encoding may take, e.g. 512M or 8G
+        /// (default 4G); work that would need more is refused before it
+        /// starts.
+        #[arg(long, value_name = "SIZE", value_parser = memory_size)]
+        max_memory: Option<u64>,
         /// No progress or summary output.
         #[arg(long)]
         quiet: bool,
@@ -108,6 +118,11 @@ enum Command {
         /// Output this subdivision level (0 = base mesh; default: finest).
         #[arg(long)]
         level: Option<u32>,
+        /// Most memory the decoder may take, e.g. 512M or 8G (default 1G);
+        /// a file that asks for more is refused before anything is
+        /// allocated.
+        #[arg(long, value_name = "SIZE", value_parser = memory_size)]
+        max_memory: Option<u64>,
         /// No progress or summary output.
         #[arg(long)]
         quiet: bool,
@@ -172,6 +187,7 @@ fn main() -> ExitCode {
             no_frames,
             frames_from,
             no_holds,
+            max_memory,
             quiet,
         } => {
             let mut options = qm::EncodeOptions::DEFAULT
@@ -191,7 +207,7 @@ fn main() -> ExitCode {
                 &input,
                 output,
                 &options,
-                &remesh_options(level, normal_remesh),
+                &remesh_options(level, normal_remesh, max_memory),
                 quiet,
             )
         }
@@ -200,16 +216,23 @@ fn main() -> ExitCode {
             output,
             level,
             normal_remesh,
+            max_memory,
             quiet,
-        } => remesh(&input, output, &remesh_options(level, normal_remesh), quiet),
+        } => remesh(
+            &input,
+            output,
+            &remesh_options(level, normal_remesh, max_memory),
+            quiet,
+        ),
         Command::Decompress {
             input,
             output,
             bytes,
             passes,
             level,
+            max_memory,
             quiet,
-        } => decompress(&input, output, bytes, passes, level, quiet),
+        } => decompress(&input, output, bytes, passes, level, max_memory, quiet),
         Command::Info { input, json } => info(&input, json),
         Command::Distance {
             a,
@@ -250,13 +273,44 @@ fn on_off(value: &str) -> Result<bool, String> {
     }
 }
 
-/// The remesher's defaults with the command line's level and normal
-/// placement.
-fn remesh_options(level: Option<u32>, normal: Option<bool>) -> qm::RemeshOptions {
+/// The remesher's defaults with the command line's level, normal
+/// placement and memory limit.
+fn remesh_options(
+    level: Option<u32>,
+    normal: Option<bool>,
+    max_memory: Option<u64>,
+) -> qm::RemeshOptions {
     let defaults = qm::RemeshOptions::DEFAULT;
     defaults
         .with_level(level)
         .with_normal(normal.unwrap_or(defaults.normal))
+        .with_max_memory(max_memory.unwrap_or(defaults.max_memory))
+}
+
+/// A memory size: bytes, or a number with K, M, G or T (powers of 1024;
+/// `MiB`, `GB` and the like mean the same), e.g. `512M`, `1.5G`.
+fn memory_size(value: &str) -> Result<u64, String> {
+    let text = value.trim();
+    let split = text
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(text.len());
+    let (number, unit) = text.split_at(split);
+    let shift = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "b" => 0,
+        "k" | "kb" | "kib" => 10,
+        "m" | "mb" | "mib" => 20,
+        "g" | "gb" | "gib" => 30,
+        "t" | "tb" | "tib" => 40,
+        _ => return Err(format!("unknown unit {unit:?} (use K, M, G or T)")),
+    };
+    let x: f64 = number
+        .parse()
+        .map_err(|_| format!("{value:?} is not a size such as 512M or 2G"))?;
+    let bytes = x * (1u64 << shift) as f64;
+    if !(bytes.is_finite() && (1.0..1.8e19).contains(&bytes)) {
+        return Err(format!("{value:?} is not a size between 1 byte and 16 EiB"));
+    }
+    Ok(bytes as u64)
 }
 
 fn compress(
@@ -362,6 +416,7 @@ fn decompress(
     bytes: Option<usize>,
     passes: Option<u32>,
     level: Option<u32>,
+    max_memory: Option<u64>,
     quiet: bool,
 ) -> Result<(), Failure> {
     let output = output.unwrap_or_else(|| default_output(input, "obj"));
@@ -379,7 +434,9 @@ fn decompress(
     progress.step("reading stream");
     let data = std::fs::read(input).map_err(|e| Failure::about(input, e))?;
     progress.step("decoding");
+    let limits = qm::Limits::DEFAULT.with_max_memory(max_memory.unwrap_or(qm::DEFAULT_MAX_MEMORY));
     let options = qm::DecodeOptions::default()
+        .with_limits(limits)
         .with_max_bytes(bytes)
         .with_passes(passes)
         .with_level(level);
@@ -446,7 +503,9 @@ struct Info {
 
 fn info(input: &Path, json: bool) -> Result<(), Failure> {
     let data = std::fs::read(input).map_err(|e| Failure::about(input, e))?;
-    let c = container::read(&data, &qm::Limits::DEFAULT).map_err(|e| Failure::about(input, e))?;
+    // Describing a file allocates only its base mesh.
+    let limits = qm::Limits::DEFAULT.with_max_memory(u64::MAX);
+    let c = container::read(&data, &limits).map_err(|e| Failure::about(input, e))?;
     let h = &c.header;
     let base = qm::lift::BaseMesh::new(h.base_vertices, c.base.faces.clone())
         .map_err(|e| Failure::about(input, qm::codec::Error::from(e)))?;
@@ -534,4 +593,21 @@ fn distance(a: &Path, b: &Path, json: bool, samples: usize, seed: u64) -> Result
         side("B -> A", &report.b_to_a);
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::memory_size;
+
+    #[test]
+    fn memory_sizes_parse_with_binary_units() {
+        assert_eq!(memory_size("1024"), Ok(1024));
+        assert_eq!(memory_size("512M"), Ok(512 << 20));
+        assert_eq!(memory_size("512MiB"), Ok(512 << 20));
+        assert_eq!(memory_size("1.5G"), Ok(3 << 29));
+        assert_eq!(memory_size("2 gb"), Ok(2 << 30));
+        for bad in ["", "G", "12Q", "-1M", "0", "1e99", "nan"] {
+            assert!(memory_size(bad).is_err(), "{bad:?}");
+        }
+    }
 }

@@ -40,9 +40,13 @@ pub enum AnyError {
 
 impl From<qm::Error> for AnyError {
     fn from(e: qm::Error) -> Self {
-        match e {
+        match &e {
             qm::Error::Mesh(m) => AnyError::Named(m.to_string()),
-            other => AnyError::Plain(other.to_string()),
+            qm::Error::Codec(qm::codec::Error::Memory { .. })
+            | qm::Error::Param(qm::param::Error::Memory { .. }) => {
+                AnyError::Plain(format!("{e} (--max-memory raises it)"))
+            }
+            _ => AnyError::Plain(e.to_string()),
         }
     }
 }

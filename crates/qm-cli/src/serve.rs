@@ -110,7 +110,8 @@ fn find_models(path: &Path) -> Result<Vec<Model>, Failure> {
     let mut models = Vec::new();
     for p in paths {
         let data = std::fs::read(&p).map_err(|e| Failure::about(&p, e))?;
-        container::read(&data, &qm::Limits::DEFAULT).map_err(|e| Failure::about(&p, e))?;
+        container::read(&data, &qm::Limits::DEFAULT.with_max_memory(u64::MAX))
+            .map_err(|e| Failure::about(&p, e))?;
         let name = p
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())

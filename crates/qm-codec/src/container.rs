@@ -217,7 +217,9 @@ pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u
 /// Most extra weighting bits of the normal coordinate.
 pub const MAX_NORMAL_BITS: u8 = 8;
 
-/// Decoder limits on what header fields may ask for.
+/// Decoder limits on what header fields may ask for, in the manner of
+/// image-png's `Limits`: checked against the header alone, before anything
+/// is allocated for the mesh.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[non_exhaustive]
 pub struct Limits {
@@ -227,14 +229,39 @@ pub struct Limits {
     pub max_base_faces: u32,
     /// Most samples of the decoded mesh.
     pub max_samples: u64,
+    /// Most bytes the decoder may allocate for the mesh, its trees and
+    /// buffers, as [`decode_memory`] estimates them from the header.
+    pub max_memory: u64,
 }
 
+/// Bytes a decoder holds per sample, at most: values, layout, the tree and
+/// the coder's state, and the output mesh (positions and quads). Measured
+/// peaks of `qm decompress` stay below it (`docs/hostile-input.md`).
+pub const DECODE_BYTES_PER_SAMPLE: u64 = 160;
+
+/// Bytes per base vertex and per base face a decoder holds, at most (the
+/// base mesh's adjacency and the section as read).
+pub const DECODE_BYTES_PER_BASE_ELEMENT: u64 = 256;
+
+/// The default memory limit of the native decoder: 1 GiB.
+pub const DEFAULT_MAX_MEMORY: u64 = 1 << 30;
+
 impl Limits {
-    /// Defaults: 4M base vertices and faces, 64M samples (a few GiB of memory).
+    /// Defaults: 4M base vertices and faces, 64M samples, 1 GiB of memory.
     pub const DEFAULT: Limits = Limits {
         max_base_vertices: 1 << 22,
         max_base_faces: 1 << 22,
         max_samples: 1 << 26,
+        max_memory: DEFAULT_MAX_MEMORY,
+    };
+
+    /// No limits beyond what the format itself can describe: for bytes the
+    /// caller wrote itself.
+    pub const NONE: Limits = Limits {
+        max_base_vertices: u32::MAX,
+        max_base_faces: u32::MAX,
+        max_samples: u64::MAX,
+        max_memory: u64::MAX,
     };
 
     /// Sets the sample limit.
@@ -242,22 +269,37 @@ impl Limits {
         self.max_samples = max;
         self
     }
-}
 
-impl Limits {
-    /// No limits beyond what the format itself can describe: for bytes the
-    /// caller wrote itself.
-    pub const NONE: Limits = Limits {
-        max_base_vertices: u32::MAX,
-        max_base_faces: u32::MAX,
-        max_samples: u64::MAX,
-    };
+    /// Sets the memory limit, in bytes.
+    pub const fn with_max_memory(mut self, bytes: u64) -> Self {
+        self.max_memory = bytes;
+        self
+    }
 }
 
 impl Default for Limits {
     fn default() -> Self {
         Limits::DEFAULT
     }
+}
+
+/// Samples of the mesh a header describes (base vertices, then each base
+/// face's edge and interior points; shared edges counted twice, so an
+/// upper bound).
+pub fn sample_count(h: &Header) -> u64 {
+    let n = 1u64 << h.level.min(63);
+    let faces = h.base_faces as u64;
+    let per_face = 4 * (n - 1) + (n - 1) * (n - 1);
+    (h.base_vertices as u64).saturating_add(faces.saturating_mul(per_face))
+}
+
+/// Bytes a decoder of the stream that `h` describes holds at most, by
+/// [`DECODE_BYTES_PER_SAMPLE`] and [`DECODE_BYTES_PER_BASE_ELEMENT`].
+pub fn decode_memory(h: &Header) -> u64 {
+    let base = h.base_vertices as u64 + h.base_faces as u64;
+    sample_count(h)
+        .saturating_mul(DECODE_BYTES_PER_SAMPLE)
+        .saturating_add(base.saturating_mul(DECODE_BYTES_PER_BASE_ELEMENT))
 }
 
 fn take(data: &[u8], at: usize, len: usize) -> Result<&[u8]> {
@@ -464,11 +506,19 @@ fn check_header(h: &Header, limits: &Limits) -> Result<()> {
             what: "quantization origin or step is not finite".into(),
         });
     }
-    // Upper bound of the sample count before anything is allocated.
-    let n = 1u64 << h.level;
-    let faces = h.base_faces as u64;
-    let samples = h.base_vertices as u64 + 4 * faces * (n - 1) + faces * (n - 1) * (n - 1);
-    limit("sample count", samples, limits.max_samples)
+    // Upper bounds of the sample count and the memory before anything is
+    // allocated.
+    let samples = sample_count(h);
+    limit("sample count", samples, limits.max_samples)?;
+    let needed = decode_memory(h);
+    if needed > limits.max_memory {
+        return Err(Error::Memory {
+            needed,
+            limit: limits.max_memory,
+            samples,
+        });
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -644,6 +694,38 @@ mod tests {
                 other => panic!("flags {flags:#x}: {other:?}"),
             }
         }
+    }
+
+    /// A header that asks for more memory than the limit is refused from
+    /// the header alone, saying what it asks for; a higher limit lets it
+    /// through to the next check.
+    #[test]
+    fn memory_is_limited_by_the_header() {
+        let (mut header, mut base) = sample();
+        header.level = 11;
+        header.flags = 0;
+        base.low_bits = 0;
+        let bytes = write(&header, &base, b"").unwrap();
+        let needed = decode_memory(&header);
+        assert_eq!(sample_count(&header), 4 + 4 * 2047 + 2047 * 2047);
+        match read(&bytes, &Limits::DEFAULT.with_max_memory(needed - 1)) {
+            Err(e @ Error::Memory { .. }) => {
+                let text = e.to_string();
+                assert!(text.contains("4198401 samples"), "{text}");
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(read(&bytes, &Limits::DEFAULT.with_max_memory(needed)).is_ok());
+        assert!(
+            read(&bytes, &Limits::DEFAULT).is_ok(),
+            "640 MiB is under 1 GiB"
+        );
+        header.level = 12;
+        let bytes = write(&header, &base, b"").unwrap();
+        assert!(matches!(
+            read(&bytes, &Limits::DEFAULT.with_max_samples(u64::MAX)),
+            Err(Error::Memory { .. })
+        ));
     }
 
     #[test]

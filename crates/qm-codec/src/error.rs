@@ -65,6 +65,20 @@ pub enum Error {
         /// The limit.
         max: u64,
     },
+    /// Decoding (or encoding) would take more memory than the limit allows.
+    #[error(
+        "needs about {} of memory for {samples} samples, above the limit of {}",
+        mib(*needed),
+        mib(*limit)
+    )]
+    Memory {
+        /// Bytes the work would take, estimated.
+        needed: u64,
+        /// The limit.
+        limit: u64,
+        /// Samples of the mesh.
+        samples: u64,
+    },
     /// The semi-regular layer refused the mesh.
     #[error(transparent)]
     Lift(#[from] qm_lift::Error),
@@ -77,6 +91,16 @@ impl Error {
     /// Whether the data simply ended too early (more bytes would help).
     pub fn is_truncated(&self) -> bool {
         matches!(self, Error::Truncated { .. })
+    }
+}
+
+/// `bytes` for people: MiB (or GiB from 10 GiB on), rounded up.
+pub fn mib(bytes: u64) -> String {
+    const MIB: u64 = 1 << 20;
+    if bytes >= 10 << 30 {
+        format!("{} GiB", bytes.div_ceil(1 << 30))
+    } else {
+        format!("{} MiB", bytes.div_ceil(MIB))
     }
 }
 

@@ -23,8 +23,8 @@ pub use codec::{
     AUTO_CUTS, AUTO_MIN_GAIN_DB, Compressed, DecodeOptions, DecodeStatus, Decoder, Decompressed,
     EncodeOptions, Frames, compress, compress_probed, decompress,
 };
-pub use container::Limits;
-pub use error::{Error, Result};
+pub use container::{DEFAULT_MAX_MEMORY, Limits};
+pub use error::{Error, Result, mib};
 pub use holds::Probes;
 pub use qm_ezw::{self, Contexts, Weighting};
 pub use qm_lift::{self, UpdateRule};

@@ -72,6 +72,25 @@ pub enum Error {
         /// What went wrong.
         failure: RemeshFailure,
     },
+    /// Remeshing and encoding would take more memory than the limit
+    /// ([`crate::remesh::encode_memory`]).
+    #[error(
+        "remeshing and encoding needs about {} MiB of memory ({triangles} input triangles{}), \
+         above the limit of {} MiB",
+        needed.div_ceil(1 << 20),
+        if *samples > 0 { format!(", {samples} samples") } else { String::new() },
+        limit.div_ceil(1 << 20)
+    )]
+    Memory {
+        /// Bytes the work would take, estimated.
+        needed: u64,
+        /// The limit.
+        limit: u64,
+        /// Input triangles.
+        triangles: u64,
+        /// Samples of the remesh (0 when refused on the input alone).
+        samples: u64,
+    },
     /// A consistency check that this crate guarantees did not hold: a bug here.
     #[error("internal error in qm-param: {0}")]
     Internal(&'static str),

@@ -78,10 +78,15 @@ impl Default for Incremental {
     }
 }
 
+/// The browser decoder's memory limit: 512 MiB, an eighth of the largest
+/// WebAssembly heap, so that a hostile file cannot crash the tab.
+pub const WASM_MAX_MEMORY: u64 = 512 << 20;
+
 impl Incremental {
-    /// An empty decoder with the default limits.
+    /// An empty decoder with the default limits, memory capped at
+    /// [`WASM_MAX_MEMORY`].
     pub fn new() -> Self {
-        Self::with_limits(Limits::DEFAULT)
+        Self::with_limits(Limits::DEFAULT.with_max_memory(WASM_MAX_MEMORY))
     }
 
     /// An empty decoder with the given limits.

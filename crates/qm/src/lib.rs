@@ -44,8 +44,8 @@ pub use qm_param as param;
 pub use qm_tree as tree;
 
 pub use qm_codec::{
-    Contexts, DecodeOptions, DecodeStatus, Decoder, Decompressed, EncodeOptions, Frames, Limits,
-    UpdateRule, Weighting,
+    Contexts, DEFAULT_MAX_MEMORY, DecodeOptions, DecodeStatus, Decoder, Decompressed,
+    EncodeOptions, Frames, Limits, UpdateRule, Weighting,
 };
 pub use qm_io::PolyMesh;
 pub use qm_lift::SemiRegularMesh;
@@ -173,10 +173,15 @@ pub struct Prepared {
 
 /// Turns any input mesh into a semi-regular quad mesh: a quad mesh with
 /// subdivision connectivity is taken as it is, anything else is remeshed.
+/// Work that would take more than [`RemeshOptions::max_memory`] (as
+/// [`param::remesh::encode_memory`] estimates it) is refused before it
+/// starts.
 pub fn prepare(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Prepared> {
     if mesh.all_faces_have(4) {
         match qm_param::detect_subdivision(mesh) {
             Ok(d) => {
+                let samples = d.mesh.positions().len() as u64;
+                qm_param::remesh::check_memory(0, samples, options.max_memory)?;
                 return Ok(Prepared {
                     mesh: d.mesh,
                     source: Some(d.source),

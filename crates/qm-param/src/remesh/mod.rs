@@ -98,6 +98,10 @@ pub struct RemeshOptions {
     /// point along its frame normals where that is safe (a normal mesh;
     /// module `normal`).
     pub normal: bool,
+    /// Most bytes remeshing and encoding may take ([`encode_memory`]):
+    /// checked on the input before any work and on the level's samples
+    /// before they are made.
+    pub max_memory: u64,
 }
 
 impl RemeshOptions {
@@ -113,6 +117,7 @@ impl RemeshOptions {
         extra_cuts: 2,
         fit_rounds: 3,
         normal: true,
+        max_memory: DEFAULT_MAX_MEMORY,
     };
 
     /// Sets the level.
@@ -142,6 +147,12 @@ impl RemeshOptions {
     /// Sets whether the samples are placed for normal details.
     pub const fn with_normal(mut self, normal: bool) -> Self {
         self.normal = normal;
+        self
+    }
+
+    /// Sets the memory limit, in bytes.
+    pub const fn with_max_memory(mut self, bytes: u64) -> Self {
+        self.max_memory = bytes;
         self
     }
 
@@ -205,6 +216,8 @@ pub struct NormalReport {
 
 /// Remeshes `mesh` into a semi-regular quad mesh.
 pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
+    let input_triangles = mesh.faces().map(|f| f.len().saturating_sub(2) as u64).sum();
+    check_memory(input_triangles, 0, options.max_memory)?;
     let mut cleaned = clean(mesh)?;
     let input_vertices: usize = cleaned.components.iter().map(|c| c.positions.len()).sum();
     for c in &mut cleaned.components {
@@ -338,6 +351,9 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
             }
         }
     }
+    // The level's samples, before any is made.
+    let samples: f64 = charts.iter().map(|c| square_samples(c.1.k, level)).sum();
+    check_memory(input_triangles, samples as u64, options.max_memory)?;
     // Sample and stitch every component, then join them; meanwhile, the
     // input surface for normal placement is built.
     let sample = || -> Result<_> {
@@ -462,6 +478,41 @@ fn part(c: usize, component: &TriMesh) -> Part {
         genus: topo.genus,
         holes: topo.boundary_loops,
     }
+}
+
+/// Bytes that remeshing and then encoding hold per input triangle, at most
+/// (clean-up, charts and their factorizations, the surfaces of normal
+/// placement and of the encoder's holds). Fitted to measured peaks of
+/// `qm compress` (`docs/hostile-input.md`) with a margin.
+pub const BYTES_PER_TRIANGLE: u64 = 2560;
+
+/// Bytes that remeshing and then encoding hold per sample, at most.
+pub const BYTES_PER_SAMPLE: u64 = 256;
+
+/// The default memory limit of remeshing and encoding: 4 GiB. Higher than
+/// a decoder's (which takes files from strangers): the input is the user's
+/// own mesh, and a dense scan needs about 2.5 KB per triangle.
+pub const DEFAULT_MAX_MEMORY: u64 = 4 << 30;
+
+/// Bytes that remeshing `triangles` into `samples` and encoding them take,
+/// estimated by [`BYTES_PER_TRIANGLE`] and [`BYTES_PER_SAMPLE`].
+pub fn encode_memory(triangles: u64, samples: u64) -> u64 {
+    (triangles.saturating_mul(BYTES_PER_TRIANGLE))
+        .saturating_add(samples.saturating_mul(BYTES_PER_SAMPLE))
+}
+
+/// Refuses work whose [`encode_memory`] is above `limit`.
+pub fn check_memory(triangles: u64, samples: u64, limit: u64) -> Result<()> {
+    let needed = encode_memory(triangles, samples);
+    if needed > limit {
+        return Err(Error::Memory {
+            needed,
+            limit,
+            triangles,
+            samples,
+        });
+    }
+    Ok(())
 }
 
 /// Samples of a square of `k` base quads a side at `level`: `(k 2^L + 1)^2`.
