@@ -114,6 +114,15 @@ struct Case {
     fragment: String,
 }
 
+fn case(file: &'static str, what: &str, bytes: Vec<u8>, fragment: &str) -> Case {
+    Case {
+        file,
+        what: what.to_string(),
+        bytes,
+        fragment: fragment.to_string(),
+    }
+}
+
 /// Decompression bombs: a few kilobytes whose header asks for gigabytes,
 /// checksums valid. `cube` is cc_cube at 16 bits, `v` the holed grid.
 fn bombs(cube: &Valid, v: &Valid) -> Vec<Case> {
@@ -121,12 +130,6 @@ fn bombs(cube: &Valid, v: &Valid) -> Vec<Case> {
         let mut h = v.header.clone();
         f(&mut h);
         v.with_header(&h)
-    };
-    let case = |file, what: &str, bytes, fragment: &str| Case {
-        file,
-        what: what.to_string(),
-        bytes,
-        fragment: fragment.to_string(),
     };
     vec![
         case(
@@ -164,12 +167,6 @@ fn cases(v: &Valid) -> Vec<Case> {
         let mut h = h.clone();
         f(&mut h);
         v.with_header(&h)
-    };
-    let case = |file, what: &str, bytes, fragment: &str| Case {
-        file,
-        what: what.to_string(),
-        bytes,
-        fragment: fragment.to_string(),
     };
     let mut crlf = b"\x89QM\r\n".to_vec();
     crlf.extend_from_slice(&v.bytes[4..]);

@@ -77,12 +77,28 @@ pub fn serve(options: ServeOptions) -> Result<(), Failure> {
     }
     // The address is the result of the command: printed even with --quiet.
     println!("http://127.0.0.1:{port}/");
-    for request in server.incoming_requests() {
-        let state = Arc::clone(&state);
-        thread::spawn(move || handle(request, &state));
+    // A fixed pool of workers: however many clients connect, the server
+    // holds at most this many requests (and threads) at once; the others
+    // wait in tiny_http's queue.
+    let server = Arc::new(server);
+    let workers: Vec<_> = (0..WORKERS)
+        .map(|_| {
+            let (server, state) = (Arc::clone(&server), Arc::clone(&state));
+            thread::spawn(move || {
+                while let Ok(request) = server.recv() {
+                    handle(request, &state);
+                }
+            })
+        })
+        .collect();
+    for worker in workers {
+        let _ = worker.join();
     }
     Ok(())
 }
+
+/// Requests served at once (a throttled download holds its worker).
+const WORKERS: usize = 64;
 
 /// The `.qm` files to serve: the one named, or those in the folder, each
 /// checked to start with a valid header and base mesh.
