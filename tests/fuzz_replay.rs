@@ -5,6 +5,9 @@ use std::path::{Path, PathBuf};
 
 use qm::io::{Format, read_mesh_bytes};
 
+#[path = "../fuzz/fuzz_targets/remesh_input.rs"]
+mod remesh_input;
+
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
@@ -16,7 +19,7 @@ fn replay(target: &str, bytes: &[u8]) {
     };
     match target {
         "decode" => {
-            let limits = qm::Limits::DEFAULT.with_max_samples(1 << 20);
+            let limits = qm::Limits::DEFAULT.with_max_samples(1 << 12);
             let _ = qm::codec::container::read(bytes, &limits);
             let _ = qm::codec::decompress(bytes, &qm::DecodeOptions::default().with_limits(limits));
         }
@@ -24,6 +27,7 @@ fn replay(target: &str, bytes: &[u8]) {
         "ply" => format(Format::Ply),
         "off" => format(Format::Off),
         "stl" => format(Format::Stl),
+        "remesh" => remesh_input::run(bytes),
         // The round-trip target builds meshes from its bytes; its seeds are
         // replayed by the fuzzer itself.
         _ => {}
@@ -46,7 +50,7 @@ fn files(dir: &Path) -> Vec<PathBuf> {
 #[test]
 fn fuzz_seeds_and_findings_do_not_panic() {
     let mut count = 0;
-    for target in ["decode", "obj", "ply", "off", "stl"] {
+    for target in ["decode", "obj", "ply", "off", "stl", "remesh"] {
         for path in files(&root().join("fuzz/corpus").join(target)) {
             let bytes = std::fs::read(&path).unwrap();
             let result = std::panic::catch_unwind(|| replay(target, &bytes));

@@ -5,7 +5,7 @@
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    let limits = qm::Limits::DEFAULT.with_max_samples(1 << 20);
+    let limits = qm::Limits::DEFAULT.with_max_samples(1 << 12);
     let _ = qm::codec::container::read(data, &limits);
     let options = qm::DecodeOptions::default().with_limits(limits);
     let _ = qm::codec::decompress(data, &options);
