@@ -18,6 +18,14 @@ use qm::lift::glam::DVec3;
 
 /// Makes the input's mesh semi-regular: `Ok` or `Err`, never a panic.
 pub fn run(data: &[u8]) {
+    let (mesh, options) = input(data);
+    if let Ok(prepared) = qm::prepare(&mesh, &options) {
+        assert!(prepared.mesh.positions().iter().all(|p| p.is_finite()));
+    }
+}
+
+/// The mesh and the remesher settings that `data` describes.
+pub fn input(data: &[u8]) -> (qm::PolyMesh, qm::RemeshOptions) {
     let byte = |i: usize| data.get(i).copied().unwrap_or(0);
     let n = 3 + usize::from(byte(0)) % 62;
     let jitter = 10f64.powi(-i32::from(byte(1) % 13));
@@ -49,7 +57,5 @@ pub fn run(data: &[u8]) {
         .with_extra_cuts(usize::from(settings / 2 % 3))
         .with_stretch_iterations(if settings >= 12 { 7 } else { 1 })
         .with_samples_per_vertex(if settings >= 16 { 30.0 } else { 8.0 });
-    if let Ok(prepared) = qm::prepare(&mesh, &options) {
-        assert!(prepared.mesh.positions().iter().all(|p| p.is_finite()));
-    }
+    (mesh, options)
 }

@@ -4,7 +4,7 @@
 //!
 //! Input layout (short inputs are padded with zeros):
 //! byte 0: base mesh (bit 0: cube or 2x1 grid), level `1 + (b >> 1) % 3`;
-//! byte 1: bits `6 + b % 11`, holds when `b >= 0xe0`; byte 2: update rule and level weighting;
+//! byte 1: bits `6 + b % 11`, holds when `b >= 0xf8`; byte 2: update rule and level weighting;
 //! byte 3: position scale `2^(b % 41 - 20)`; bytes 4..6: prefix length (u16,
 //! little-endian); the rest: one little-endian `i16` per coordinate, reused
 //! cyclically.
@@ -53,9 +53,9 @@ fuzz_target!(|data: &[u8]| {
     let mesh = SemiRegularMesh::new(layout, positions).expect("finite positions");
 
     // Holds (the encoder decoding its own stream at many cuts) for one input
-    // in eight, so that the rest run fast.
+    // in 32, so that the rest run fast.
     let options = EncodeOptions::DEFAULT
-        .with_holds(byte(1) >= 0xe0)
+        .with_holds(byte(1) >= 0xf8)
         .with_bits(bits)
         .with_update(update)
         .with_weighting(weighting)

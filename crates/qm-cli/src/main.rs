@@ -74,6 +74,10 @@ enum Command {
         /// starts.
         #[arg(long, value_name = "SIZE", value_parser = memory_size)]
         max_memory: Option<u64>,
+        /// Remesh even where a part's map onto its square folds (the remesh
+        /// then overlaps itself there); by default that is an error.
+        #[arg(long)]
+        accept_folds: bool,
         /// No progress or summary output.
         #[arg(long)]
         quiet: bool,
@@ -98,6 +102,10 @@ enum Command {
         /// starts.
         #[arg(long, value_name = "SIZE", value_parser = memory_size)]
         max_memory: Option<u64>,
+        /// Remesh even where a part's map onto its square folds (the remesh
+        /// then overlaps itself there); by default that is an error.
+        #[arg(long)]
+        accept_folds: bool,
         /// No progress or summary output.
         #[arg(long)]
         quiet: bool,
@@ -188,6 +196,7 @@ fn main() -> ExitCode {
             frames_from,
             no_holds,
             max_memory,
+            accept_folds,
             quiet,
         } => {
             let mut options = qm::EncodeOptions::DEFAULT
@@ -207,7 +216,7 @@ fn main() -> ExitCode {
                 &input,
                 output,
                 &options,
-                &remesh_options(level, normal_remesh, max_memory),
+                &remesh_options(level, normal_remesh, max_memory).with_accept_folds(accept_folds),
                 quiet,
             )
         }
@@ -217,11 +226,12 @@ fn main() -> ExitCode {
             level,
             normal_remesh,
             max_memory,
+            accept_folds,
             quiet,
         } => remesh(
             &input,
             output,
-            &remesh_options(level, normal_remesh, max_memory),
+            &remesh_options(level, normal_remesh, max_memory).with_accept_folds(accept_folds),
             quiet,
         ),
         Command::Decompress {

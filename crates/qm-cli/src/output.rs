@@ -42,6 +42,10 @@ impl From<qm::Error> for AnyError {
     fn from(e: qm::Error) -> Self {
         match &e {
             qm::Error::Mesh(m) => AnyError::Named(m.to_string()),
+            qm::Error::Param(qm::param::Error::Remesh {
+                failure: qm::param::RemeshFailure::Folds { .. },
+                ..
+            }) => AnyError::Plain(format!("{e} (--accept-folds writes it anyway)")),
             qm::Error::Codec(qm::codec::Error::Memory { .. })
             | qm::Error::Param(qm::param::Error::Memory { .. }) => {
                 AnyError::Plain(format!("{e} (--max-memory raises it)"))

@@ -161,6 +161,18 @@ pub enum RemeshFailure {
         /// Why the last one did not glue.
         problem: String,
     },
+    /// The part's map onto its square folds: the remesh would overlap
+    /// itself there.
+    #[error(
+        "folds: {folded} of its {triangles} triangles are folded in its map onto its square, \
+         so the remesh would overlap itself there"
+    )]
+    Folds {
+        /// Triangles whose image in the square is turned over.
+        folded: usize,
+        /// The part's triangles.
+        triangles: usize,
+    },
     /// The cut has too many segments to lay out on a square.
     #[error("its cut has too many segments to lay out on a square")]
     TooManySegments,

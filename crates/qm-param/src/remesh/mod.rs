@@ -102,6 +102,10 @@ pub struct RemeshOptions {
     /// checked on the input before any work and on the level's samples
     /// before they are made.
     pub max_memory: u64,
+    /// Remesh even where a chart's map onto its square folds (the remesh
+    /// then overlaps itself there); by default that is an error
+    /// ([`RemeshFailure::Folds`]), before any sample is made.
+    pub accept_folds: bool,
 }
 
 impl RemeshOptions {
@@ -118,6 +122,7 @@ impl RemeshOptions {
         fit_rounds: 3,
         normal: true,
         max_memory: DEFAULT_MAX_MEMORY,
+        accept_folds: false,
     };
 
     /// Sets the level.
@@ -153,6 +158,12 @@ impl RemeshOptions {
     /// Sets the memory limit, in bytes.
     pub const fn with_max_memory(mut self, bytes: u64) -> Self {
         self.max_memory = bytes;
+        self
+    }
+
+    /// Sets whether folded maps are remeshed anyway.
+    pub const fn with_accept_folds(mut self, accept: bool) -> Self {
+        self.accept_folds = accept;
         self
     }
 
@@ -354,6 +365,16 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     // The level's samples, before any is made.
     let samples: f64 = charts.iter().map(|c| square_samples(c.1.k, level)).sum();
     check_memory(input_triangles, samples as u64, options.max_memory)?;
+    // A chart whose map folds would give a remesh that overlaps itself.
+    for (c, (chart, component)) in charts.iter().zip(&cleaned.components).enumerate() {
+        if chart.1.flipped > 0 && !options.accept_folds {
+            let failure = RemeshFailure::Folds {
+                folded: chart.1.flipped,
+                triangles: component.triangles.len(),
+            };
+            return Err(Error::remesh(failure).in_part(|| part(c, component)));
+        }
+    }
     // Sample and stitch every component, then join them; meanwhile, the
     // input surface for normal placement is built.
     let sample = || -> Result<_> {
