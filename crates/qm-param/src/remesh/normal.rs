@@ -37,39 +37,15 @@
 //! The placement asks for the closest surface points of the samples, of
 //! four quadrature nodes per sample in every round of the fit, and for a
 //! ray per odd sample. Module `surface` walks to most answers over the mesh
-//! from a triangle nearby: the samples' own from the triangle each was
-//! sampled from (module `resample` records it), the nodes' from their
-//! corners' (then each from its own of the last round), the rays' from the
-//! triangles around the prediction, within the ray's reach. Walking from a
-//! *neighbouring* sample's triangle instead stopped on the wrong sheet of
-//! concave junctions (cheburashka's ears against its head fell to 56.6 dB
-//! that way); from the sample's own, the walks found the hierarchy's
-//! closest points on all six development models (ties between the two
-//! triangles of an edge aside). Only the kept samples' closest points, long
-//! rays and rays that meet no triangle nearby ask parry's hierarchy: where
-//! a kept sample's closest point lies on an edge, the triangle whose normal
-//! puts it back on its offset surface matters (walking those too cost
-//! spot's remesh 0.011 dB), and five of their walks on fandisk and
-//! cheburashka ended on a farther sheet. On the bunny (idle machine,
-//! medians of 3), the placement adds 0.63 s to the remesher's 0.80 s. Run
-//! back to back, the version before (the hierarchy answering the samples'
-//! closest points and the rays, the walks without their shortcuts) added
-//! 1.37 s to 1.20 s.
+//! from a triangle nearby (each sample's own, recorded by `resample`, not a
+//! neighbour's, which stopped on the wrong sheet of concave junctions);
+//! kept samples' closest points, long rays and rays that meet no triangle
+//! nearby ask parry's hierarchy. On the bunny the placement adds 0.63 s to
+//! the remesher's 0.80 s.
 //!
-//! What the bounds are for, measured with `cargo xtask details` (remesh
-//! PSNR, lossless bytes at the default encoder): with every ray hit
-//! accepted (within twice the detail's length), spot fell from 86.3 to
-//! 66.9 dB (lossless 174 -> 95 KB); samples drifted by up to 80 local
-//! spacings from where the parameterization put them and the quads around
-//! the horns folded. Long details (horns and ears at coarse levels, the
-//! stretched quads along fandisk's creases) are where moving a sample does
-//! harm: it undoes the parameterization's curvature-driven density. Cutting
-//! the tangential part of the long details by 0.1 to 0.3 spacings instead
-//! of keeping them cost spot 0.5 to 2.9 dB and fandisk 3.5 to 10 dB of
-//! remesh PSNR, for at most 4% fewer bytes. Measuring the spacing by the
-//! quads' mean side instead of their shortest cost fandisk 3.5 dB (with
-//! a facing cosine of 0.2). `docs/normal-placement.md`
-//! has the rates and distortions.
+//! The bounds matter: with every ray hit accepted, spot's remesh fell from
+//! 86.3 to 66.9 dB (samples drifted up to 80 spacings and quads folded).
+//! `docs/normal-placement.md` has the measurements behind each bound.
 //!
 //! The predictions use integer coordinates on a 24-bit grid (a step of
 //! `2^-24` of the box, far below any remesh error) and no update step: the
