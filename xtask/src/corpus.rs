@@ -61,18 +61,16 @@ impl Valid {
     /// This stream with header `h` (fields written as they are, unchecked)
     /// and a valid header checksum.
     fn with_header(&self, h: &Header) -> Vec<u8> {
-        let mut raw = bincode::serde::encode_to_vec(h, bincode::config::standard())
-            .expect("a header encodes");
-        let mut end = 0;
-        let holds: Vec<[u32; 2]> = (h.holds.iter())
-            .map(|&[from, to]| {
-                let gap = from.wrapping_sub(end);
-                end = to;
-                [gap, to.wrapping_sub(from)]
-            })
-            .collect();
-        raw.extend(bincode::serde::encode_to_vec(&holds, bincode::config::standard()).unwrap());
+        let raw = container::encode_header(h).expect("a header encodes");
         self.with_header_raw(container::VERSION, &raw)
+    }
+
+    /// This stream with its header changed by `change` (unchecked) and a
+    /// valid header checksum.
+    fn changed(&self, change: &dyn Fn(&mut Header)) -> Vec<u8> {
+        let mut h = self.header.clone();
+        change(&mut h);
+        self.with_header(&h)
     }
 
     /// This stream with version byte `version`, raw header bytes `raw` and
@@ -126,48 +124,37 @@ fn case(file: &'static str, what: &str, bytes: Vec<u8>, fragment: &str) -> Case 
 /// Decompression bombs: a few kilobytes whose header asks for gigabytes,
 /// checksums valid. `cube` is cc_cube at 16 bits, `v` the holed grid.
 fn bombs(cube: &Valid, v: &Valid) -> Vec<Case> {
-    let raised = |v: &Valid, f: &dyn Fn(&mut Header)| {
-        let mut h = v.header.clone();
-        f(&mut h);
-        v.with_header(&h)
-    };
     vec![
         case(
             "qm-bomb-level-11.qm",
             "cc_cube (6 base quads, level 5) with its level raised to 11: 25M samples",
-            raised(cube, &|h| h.level = 11),
+            cube.changed(&|h| h.level = 11),
             "needs about 3844 MiB of memory for 25190390 samples, above the limit of 1024 MiB",
         ),
         case(
             "qm-bomb-level-12.qm",
             "cc_cube with its level raised to 12: 100M samples",
-            raised(cube, &|h| h.level = 12),
+            cube.changed(&|h| h.level = 12),
             "sample count is 100712438, above the limit of 67108864",
         ),
         case(
             "qm-bomb-base-faces.qm",
             "the holed grid (level 4) claiming 100,000 base faces",
-            raised(v, &|h| h.base_faces = 100_000),
+            v.changed(&|h| h.base_faces = 100_000),
             "above the limit of 1024 MiB",
         ),
         case(
             "qm-bomb-base-vertices.qm",
             "the holed grid claiming 4,000,000 base vertices",
-            raised(v, &|h| h.base_vertices = 4_000_000),
+            v.changed(&|h| h.base_vertices = 4_000_000),
             "above the limit of 1024 MiB",
         ),
     ]
 }
 
 fn cases(v: &Valid) -> Vec<Case> {
-    let h = &v.header;
     let hb = v.header_bytes;
     let base_len = v.base().len();
-    let header = |f: &dyn Fn(&mut Header)| {
-        let mut h = h.clone();
-        f(&mut h);
-        v.with_header(&h)
-    };
     let mut crlf = b"\x89QM\r\n".to_vec();
     crlf.extend_from_slice(&v.bytes[4..]);
     let mut zip = b"PK\x03\x04".to_vec();
@@ -218,31 +205,31 @@ fn cases(v: &Valid) -> Vec<Case> {
         case(
             "qm-header-frames-12.qm",
             "frame kind 12 (0 to 11 exist)",
-            header(&|h| h.frames = 12),
+            v.changed(&|h| h.frames = 12),
             "unknown frame kind 12",
         ),
         case(
             "qm-header-normal-bits-9.qm",
             "normal weight of 9 bits",
-            header(&|h| h.normal_bits = 9),
+            v.changed(&|h| h.normal_bits = 9),
             "normal weight of 9 bits",
         ),
         case(
             "qm-header-flag-0x40.qm",
             "reserved header flag bit 6 set",
-            header(&|h| h.flags |= 0x40),
+            v.changed(&|h| h.flags |= 0x40),
             "unknown header flags 0x40",
         ),
         case(
             "qm-header-flag-0x20.qm",
             "reserved header flag bit 5 set (development builds' neighbour-context flag)",
-            header(&|h| h.flags |= 0x20),
+            v.changed(&|h| h.flags |= 0x20),
             "unknown header flags 0x20",
         ),
         case(
             "qm-header-empty-hold.qm",
             "one hold, empty: `[5, 5]`",
-            header(&|h| h.holds = vec![[5, 5]]),
+            v.changed(&|h| h.holds = vec![[5, 5]]),
             "hold [5, 5] after one ending at 0",
         ),
         case(
@@ -302,73 +289,73 @@ fn cases(v: &Valid) -> Vec<Case> {
         case(
             "qm-header-bits-0.qm",
             "0 quantization bits",
-            header(&|h| h.bits = 0),
+            v.changed(&|h| h.bits = 0),
             "0 quantization bits",
         ),
         case(
             "qm-header-bits-30.qm",
             "30 quantization bits",
-            header(&|h| h.bits = 30),
+            v.changed(&|h| h.bits = 30),
             "30 quantization bits",
         ),
         case(
             "qm-header-level-13.qm",
             "subdivision level 13",
-            header(&|h| h.level = 13),
+            v.changed(&|h| h.level = 13),
             "subdivision level is 13",
         ),
         case(
             "qm-header-update-9.qm",
             "update rule 9",
-            header(&|h| h.update = 9),
+            v.changed(&|h| h.update = 9),
             "unknown update rule 9",
         ),
         case(
             "qm-header-passes-above-planes.qm",
             "9 passes of 7 planes",
-            header(&|h| (h.passes, h.planes) = (9, 7)),
+            v.changed(&|h| (h.passes, h.planes) = (9, 7)),
             "9 passes of 7 planes",
         ),
         case(
             "qm-header-step-nan.qm",
             "quantization step NaN",
-            header(&|h| h.step = f64::NAN),
+            v.changed(&|h| h.step = f64::NAN),
             "not finite",
         ),
         case(
             "qm-header-step-zero.qm",
             "quantization step 0",
-            header(&|h| h.step = 0.0),
+            v.changed(&|h| h.step = 0.0),
             "quantization origin or step",
         ),
         case(
             "qm-header-origin-infinite.qm",
             "infinite origin",
-            header(&|h| h.origin[1] = f64::INFINITY),
+            v.changed(&|h| h.origin[1] = f64::INFINITY),
             "not finite",
         ),
         case(
             "qm-header-base-vertices-huge.qm",
             "2^32-1 base vertices",
-            header(&|h| h.base_vertices = u32::MAX),
+            v.changed(&|h| h.base_vertices = u32::MAX),
             "above the limit",
         ),
         case(
             "qm-header-base-faces-huge.qm",
             "2^23 base faces (the default limit is 2^22)",
-            header(&|h| h.base_faces = 1 << 23),
+            v.changed(&|h| h.base_faces = 1 << 23),
             "above the limit",
         ),
         case(
             "qm-header-samples-above-limit.qm",
             "100 base faces at level 12",
-            header(&|h| (h.base_faces, h.level) = (100, 12)),
+            v.changed(&|h| (h.base_faces, h.level) = (100, 12)),
             "sample count",
         ),
         case(
             "qm-header-vertex-count-mismatch.qm",
             "header says one base vertex more than the base section holds",
-            header(&|h| h.base_vertices += 1),
+            v.changed(&|h| h.base_vertices += 1),
             "base mesh",
         ),
         case(

@@ -10,7 +10,7 @@ mod serve;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{Args, Parser, Subcommand};
 use qm::codec::container;
 
 use output::{Failure, Progress, default_output, refuse_overwriting_input, write_atomic};
@@ -24,6 +24,40 @@ use output::{Failure, Progress, default_output, refuse_overwriting_input, write_
 struct Cli {
     #[command(subcommand)]
     command: Command,
+}
+
+/// The remesher's settings, shared by `compress` and `remesh`.
+#[derive(Args)]
+struct RemeshArgs {
+    /// Subdivision level when the input must be remeshed (default: about
+    /// 30 samples per input vertex, at most 32).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=qm::lift::MAX_LEVEL as i64))]
+    level: Option<u32>,
+    /// Place the remeshed samples so that their details are normal
+    /// (a normal mesh, see docs/normal-placement.md; default: on).
+    #[arg(long, value_name = "on|off", value_parser = on_off)]
+    normal_remesh: Option<bool>,
+    /// Most memory remeshing and encoding may take, e.g. 512M or 8G
+    /// (default 4G); work that would need more is refused before it
+    /// starts.
+    #[arg(long, value_name = "SIZE", value_parser = memory_size)]
+    max_memory: Option<u64>,
+    /// Remesh even where a part's map onto its square folds (the remesh
+    /// then overlaps itself there); by default that is an error.
+    #[arg(long)]
+    accept_folds: bool,
+}
+
+impl RemeshArgs {
+    /// The remesher's defaults with these settings.
+    fn options(&self) -> qm::RemeshOptions {
+        let defaults = qm::RemeshOptions::DEFAULT;
+        defaults
+            .with_level(self.level)
+            .with_normal(self.normal_remesh.unwrap_or(defaults.normal))
+            .with_max_memory(self.max_memory.unwrap_or(defaults.max_memory))
+            .with_accept_folds(self.accept_folds)
+    }
 }
 
 #[derive(Subcommand)]
@@ -44,14 +78,8 @@ enum Command {
         /// Cut the file to at most this many bytes.
         #[arg(long)]
         bytes: Option<usize>,
-        /// Subdivision level when the input must be remeshed (default: about
-        /// 30 samples per input vertex, at most 32).
-        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=qm::lift::MAX_LEVEL as i64))]
-        level: Option<u32>,
-        /// Place the remeshed samples so that their details are normal
-        /// (a normal mesh, see docs/normal-placement.md; default: on).
-        #[arg(long, value_name = "on|off", value_parser = on_off)]
-        normal_remesh: Option<bool>,
+        #[command(flatten)]
+        remesh: RemeshArgs,
         /// Code the details in world axes, the three coordinates alike,
         /// instead of normal first in local frames (can suit dense noisy
         /// scans; see docs/frames.md).
@@ -69,15 +97,6 @@ enum Command {
         /// bytes per hold; see docs/holds.md).
         #[arg(long)]
         no_holds: bool,
-        /// Most memory remeshing and encoding may take, e.g. 512M or 8G
-        /// (default 4G); work that would need more is refused before it
-        /// starts.
-        #[arg(long, value_name = "SIZE", value_parser = memory_size)]
-        max_memory: Option<u64>,
-        /// Remesh even where a part's map onto its square folds (the remesh
-        /// then overlaps itself there); by default that is an error.
-        #[arg(long)]
-        accept_folds: bool,
         /// No progress or summary output.
         #[arg(long)]
         quiet: bool,
@@ -89,23 +108,8 @@ enum Command {
         /// Output mesh, .obj or .ply (default: the input name + "-remeshed.obj").
         #[arg(short, long)]
         output: Option<PathBuf>,
-        /// Subdivision level (default: about 30 samples per input vertex, at
-        /// most 32).
-        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=qm::lift::MAX_LEVEL as i64))]
-        level: Option<u32>,
-        /// Place the remeshed samples so that their details are normal
-        /// (a normal mesh, see docs/normal-placement.md; default: on).
-        #[arg(long, value_name = "on|off", value_parser = on_off)]
-        normal_remesh: Option<bool>,
-        /// Most memory remeshing and encoding may take, e.g. 512M or 8G
-        /// (default 4G); work that would need more is refused before it
-        /// starts.
-        #[arg(long, value_name = "SIZE", value_parser = memory_size)]
-        max_memory: Option<u64>,
-        /// Remesh even where a part's map onto its square folds (the remesh
-        /// then overlaps itself there); by default that is an error.
-        #[arg(long)]
-        accept_folds: bool,
+        #[command(flatten)]
+        remesh: RemeshArgs,
         /// No progress or summary output.
         #[arg(long)]
         quiet: bool,
@@ -190,13 +194,10 @@ fn main() -> ExitCode {
             bits,
             passes,
             bytes,
-            level,
-            normal_remesh,
+            remesh,
             no_frames,
             frames_from,
             no_holds,
-            max_memory,
-            accept_folds,
             quiet,
         } => {
             let mut options = qm::EncodeOptions::DEFAULT
@@ -212,28 +213,14 @@ fn main() -> ExitCode {
             if let Some(level) = frames_from {
                 options = options.with_frame_source(qm::Frames::ParentsFrom(level));
             }
-            compress(
-                &input,
-                output,
-                &options,
-                &remesh_options(level, normal_remesh, max_memory).with_accept_folds(accept_folds),
-                quiet,
-            )
+            compress(&input, output, &options, &remesh.options(), quiet)
         }
         Command::Remesh {
             input,
             output,
-            level,
-            normal_remesh,
-            max_memory,
-            accept_folds,
+            remesh: args,
             quiet,
-        } => remesh(
-            &input,
-            output,
-            &remesh_options(level, normal_remesh, max_memory).with_accept_folds(accept_folds),
-            quiet,
-        ),
+        } => remesh(&input, output, &args.options(), quiet),
         Command::Decompress {
             input,
             output,
@@ -281,20 +268,6 @@ fn on_off(value: &str) -> Result<bool, String> {
         "off" => Ok(false),
         _ => Err("expected on or off".into()),
     }
-}
-
-/// The remesher's defaults with the command line's level, normal
-/// placement and memory limit.
-fn remesh_options(
-    level: Option<u32>,
-    normal: Option<bool>,
-    max_memory: Option<u64>,
-) -> qm::RemeshOptions {
-    let defaults = qm::RemeshOptions::DEFAULT;
-    defaults
-        .with_level(level)
-        .with_normal(normal.unwrap_or(defaults.normal))
-        .with_max_memory(max_memory.unwrap_or(defaults.max_memory))
 }
 
 /// A memory size: bytes, or a number with K, M, G or T (powers of 1024;
@@ -444,7 +417,9 @@ fn decompress(
     progress.step("reading stream");
     let data = std::fs::read(input).map_err(|e| Failure::about(input, e))?;
     progress.step("decoding");
-    let limits = qm::Limits::DEFAULT.with_max_memory(max_memory.unwrap_or(qm::DEFAULT_MAX_MEMORY));
+    let limits = max_memory.map_or(qm::Limits::DEFAULT, |m| {
+        qm::Limits::DEFAULT.with_max_memory(m)
+    });
     let options = qm::DecodeOptions::default()
         .with_limits(limits)
         .with_max_bytes(bytes)

@@ -159,6 +159,27 @@ fn config() -> bincode::config::Configuration {
     bincode::config::standard()
 }
 
+/// The header's bytes as the container stores them (its fields, then its
+/// holds, each as the gap from the last hold's end and its length), without
+/// any check: [`write`] checks first; a writer of malformed test files
+/// calls this alone.
+pub fn encode_header(header: &Header) -> Result<Vec<u8>> {
+    let encode_error = |e: bincode::error::EncodeError| Error::Malformed {
+        what: e.to_string(),
+    };
+    let mut bytes = bincode::serde::encode_to_vec(header, config()).map_err(encode_error)?;
+    let mut end = 0u32;
+    let relative: Vec<[u32; 2]> = (header.holds.iter())
+        .map(|&[from, to]| {
+            let gap = from.wrapping_sub(end);
+            end = to;
+            [gap, to.wrapping_sub(from)]
+        })
+        .collect();
+    bincode::serde::encode_into_std_write(&relative, &mut bytes, config()).map_err(encode_error)?;
+    Ok(bytes)
+}
+
 /// Writes a complete container.
 pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u8>> {
     let low_bits = header.stream_params().base_bits;
@@ -177,23 +198,7 @@ pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u
             ),
         });
     }
-    let mut header_bytes =
-        bincode::serde::encode_to_vec(header, config()).map_err(|e| Error::Malformed {
-            what: e.to_string(),
-        })?;
-    let mut end = 0;
-    let relative: Vec<[u32; 2]> = (header.holds.iter())
-        .map(|&[from, to]| {
-            let gap = from - end;
-            end = to;
-            [gap, to - from]
-        })
-        .collect();
-    bincode::serde::encode_into_std_write(&relative, &mut header_bytes, config()).map_err(|e| {
-        Error::Malformed {
-            what: e.to_string(),
-        }
-    })?;
+    let header_bytes = encode_header(header)?;
     let header_len = u16::try_from(header_bytes.len()).map_err(|_| Error::Limit {
         what: "header length (holds)",
         value: header_bytes.len() as u64,
@@ -287,9 +292,10 @@ impl Default for Limits {
 /// face's edge and interior points; shared edges counted twice, so an
 /// upper bound).
 pub fn sample_count(h: &Header) -> u64 {
-    let n = 1u64 << h.level.min(63);
+    // Saturating: callers may ask before the level is checked.
+    let m = (1u64 << h.level.min(63)) - 1;
+    let per_face = m.saturating_mul(m).saturating_add(m.saturating_mul(4));
     let faces = h.base_faces as u64;
-    let per_face = 4 * (n - 1) + (n - 1) * (n - 1);
     (h.base_vertices as u64).saturating_add(faces.saturating_mul(per_face))
 }
 
@@ -708,6 +714,11 @@ mod tests {
         let bytes = write(&header, &base, b"").unwrap();
         let needed = decode_memory(&header);
         assert_eq!(sample_count(&header), 4 + 4 * 2047 + 2047 * 2047);
+        let unchecked = Header {
+            level: 200,
+            ..header.clone()
+        };
+        assert_eq!(sample_count(&unchecked), u64::MAX);
         match read(&bytes, &Limits::DEFAULT.with_max_memory(needed - 1)) {
             Err(e @ Error::Memory { .. }) => {
                 let text = e.to_string();

@@ -67,9 +67,9 @@ pub enum Error {
     },
     /// Decoding (or encoding) would take more memory than the limit allows.
     #[error(
-        "needs about {} of memory for {samples} samples, above the limit of {}",
-        mib(*needed),
-        mib(*limit)
+        "needs about {} MiB of memory for {samples} samples, above the limit of {} MiB",
+        needed.div_ceil(1 << 20),
+        limit.div_ceil(1 << 20)
     )]
     Memory {
         /// Bytes the work would take, estimated.
@@ -91,16 +91,6 @@ impl Error {
     /// Whether the data simply ended too early (more bytes would help).
     pub fn is_truncated(&self) -> bool {
         matches!(self, Error::Truncated { .. })
-    }
-}
-
-/// `bytes` for people: MiB (or GiB from 10 GiB on), rounded up.
-pub fn mib(bytes: u64) -> String {
-    const MIB: u64 = 1 << 20;
-    if bytes >= 10 << 30 {
-        format!("{} GiB", bytes.div_ceil(1 << 30))
-    } else {
-        format!("{} MiB", bytes.div_ceil(MIB))
     }
 }
 

@@ -24,7 +24,7 @@ pub use codec::{
     EncodeOptions, Frames, compress, compress_probed, decompress,
 };
 pub use container::{DEFAULT_MAX_MEMORY, Limits};
-pub use error::{Error, Result, mib};
+pub use error::{Error, Result};
 pub use holds::Probes;
 pub use qm_ezw::{self, Contexts, Weighting};
 pub use qm_lift::{self, UpdateRule};

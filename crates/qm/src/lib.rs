@@ -44,8 +44,8 @@ pub use qm_param as param;
 pub use qm_tree as tree;
 
 pub use qm_codec::{
-    Contexts, DEFAULT_MAX_MEMORY, DecodeOptions, DecodeStatus, Decoder, Decompressed,
-    EncodeOptions, Frames, Limits, UpdateRule, Weighting,
+    Contexts, DecodeOptions, DecodeStatus, Decoder, Decompressed, EncodeOptions, Frames, Limits,
+    UpdateRule, Weighting,
 };
 pub use qm_io::PolyMesh;
 pub use qm_lift::SemiRegularMesh;
@@ -124,15 +124,26 @@ pub fn encode(mesh: &PolyMesh, options: &Options) -> Result<Encoded> {
 pub struct Decoded {
     /// The mesh at the decoded level (quads).
     pub mesh: PolyMesh,
-    /// The subdivision level of [`Decoded::mesh`] (0 is the base mesh).
-    pub level: u32,
-    /// Bit-plane passes decoded.
-    pub passes: u32,
-    /// Whether the stream ended before its last pass.
-    pub truncated: bool,
     /// Everything the decoder made: layout, quantized values, header, and
     /// how many bytes of each section were there.
     pub raw: Decompressed,
+}
+
+impl Decoded {
+    /// The subdivision level of [`Decoded::mesh`] (0 is the base mesh).
+    pub fn level(&self) -> u32 {
+        self.raw.level
+    }
+
+    /// Bit-plane passes decoded.
+    pub fn passes(&self) -> u32 {
+        self.raw.passes
+    }
+
+    /// Whether the stream ended before its last pass.
+    pub fn truncated(&self) -> bool {
+        self.raw.truncated
+    }
 }
 
 /// Decompresses `.qm` bytes; any cut after the base mesh is fine (a cut
@@ -142,9 +153,6 @@ pub fn decode(bytes: &[u8], options: &DecodeOptions) -> Result<Decoded> {
     let (positions, quads) = raw.level_mesh();
     Ok(Decoded {
         mesh: PolyMesh::from_faces(positions, &quads),
-        level: raw.level,
-        passes: raw.passes,
-        truncated: raw.truncated,
         raw,
     })
 }
