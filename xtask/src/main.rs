@@ -27,6 +27,9 @@
 //!   [`budget`].
 //! - `corpus`: writes the malformed `.qm` files of `tests/corrupt/` anew
 //!   from one valid stream and prints their table rows. See [`corpus`].
+//! - `stress DIR`: writes four generated meshes of hard topology into `DIR`
+//!   (genus 12, 100 holes, 300 parts, a ragged open height field) and prints
+//!   their topology. See [`stress`].
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -40,6 +43,7 @@ mod details;
 mod plot;
 mod rd;
 mod remesh_bench;
+mod stress;
 
 const PASSES: [u32; 6] = [2, 4, 6, 8, 10, 12];
 
@@ -53,13 +57,15 @@ fn main() -> ExitCode {
         Some("details") => details::run(&args[1..]),
         Some("budget") => budget::run(&args[1..]),
         Some("corpus") => corpus::run(&args[1..]),
+        Some("stress") => stress::run(&args[1..]),
         _ => Err("usage: cargo xtask pass-table [MESH ...]\n       \
                   cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]\n       \
                   cargo xtask remesh-bench [--level L] [--normal-remesh on|off] [--runs N] [--against XTASK] [MESH ...]\n       \
                   cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--cuts N] [--out FILE]\n       \
                   cargo xtask details [FILE|DIR ...]\n       \
                   cargo xtask budget [--models FILE|DIR ...] [--db DB ...]\n       \
-                  cargo xtask corpus"
+                  cargo xtask corpus\n       \
+                  cargo xtask stress DIR"
             .to_string()),
     };
     match result {

@@ -46,6 +46,23 @@ struct RemeshArgs {
     /// then overlaps itself there); by default that is an error.
     #[arg(long)]
     accept_folds: bool,
+    /// How the base domain is made: one square per part, falling back to
+    /// a simplified base domain where that fails (auto), or always one of
+    /// them (see docs/remesher-next.md).
+    #[arg(long, value_enum, default_value_t = Domain::Auto)]
+    base_domain: Domain,
+    /// Refuse a remesh through a simplified base domain that measures
+    /// below this PSNR against the input (0 accepts any).
+    #[arg(long, value_name = "DB", default_value_t = qm::param::remesh::DEFAULT_MIN_PSNR)]
+    min_remesh_psnr: f64,
+}
+
+/// `--base-domain`.
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum Domain {
+    Auto,
+    Square,
+    Charts,
 }
 
 impl RemeshArgs {
@@ -57,6 +74,12 @@ impl RemeshArgs {
             .with_normal(self.normal_remesh.unwrap_or(defaults.normal))
             .with_max_memory(self.max_memory.unwrap_or(defaults.max_memory))
             .with_accept_folds(self.accept_folds)
+            .with_domain(match self.base_domain {
+                Domain::Auto => qm::param::BaseDomain::Auto,
+                Domain::Square => qm::param::BaseDomain::Square,
+                Domain::Charts => qm::param::BaseDomain::Charts,
+            })
+            .with_min_psnr(self.min_remesh_psnr)
     }
 }
 
@@ -390,6 +413,12 @@ fn report_remesh(input: &Path, r: &qm::RemeshReport) {
             "  normal placement: {} samples moved onto their normal ray, {} kept their detail",
             n.moved, n.kept
         );
+    }
+    if let Some(why) = &r.fallback {
+        eprintln!("  base domain: charts, since one square per part failed: {why}");
+    }
+    if let Some(psnr) = r.psnr {
+        eprintln!("  remesh measured at {psnr:.1} dB against the input");
     }
 }
 

@@ -46,6 +46,10 @@ impl From<qm::Error> for AnyError {
                 failure: qm::param::RemeshFailure::Folds { .. },
                 ..
             }) => AnyError::Plain(format!("{e} (--accept-folds writes it anyway)")),
+            qm::Error::Param(qm::param::Error::Remesh {
+                failure: qm::param::RemeshFailure::TooFar { .. },
+                ..
+            }) => AnyError::Plain(format!("{e} (--min-remesh-psnr 0 writes it anyway)")),
             qm::Error::Codec(qm::codec::Error::Memory { .. })
             | qm::Error::Param(qm::param::Error::Memory { .. }) => {
                 AnyError::Plain(format!("{e} (--max-memory raises it)"))

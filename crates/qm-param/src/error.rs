@@ -164,14 +164,26 @@ pub enum RemeshFailure {
     /// The part's map onto its square folds: the remesh would overlap
     /// itself there.
     #[error(
-        "folds: {folded} of its {triangles} triangles are folded in its map onto its square, \
-         so the remesh would overlap itself there"
+        "folds: {folded} of its {triangles} triangles are folded in its map onto its base \
+         domain, so the remesh would overlap itself there"
     )]
     Folds {
         /// Triangles whose image in the square is turned over.
         folded: usize,
         /// The part's triangles.
         triangles: usize,
+    },
+    /// The remesh lies further from the input than the floor allows
+    /// ([`crate::RemeshOptions::min_psnr`]), measured by the remesher.
+    #[error(
+        "its remesh is {psnr:.1} dB from the input (symmetric RMS distance), below the floor of \
+         {floor:.1} dB"
+    )]
+    TooFar {
+        /// The remesh's PSNR against the input.
+        psnr: f64,
+        /// The floor.
+        floor: f64,
     },
     /// The cut has too many segments to lay out on a square.
     #[error("its cut has too many segments to lay out on a square")]

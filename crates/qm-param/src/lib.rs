@@ -32,6 +32,6 @@ pub use distance::{DistanceOptions, DistanceReport, OneSided, Side, distance};
 pub use error::{Error, Part, RemeshFailure, Result};
 pub use qm_io::PolyMesh;
 pub use qm_lift::SemiRegularMesh;
-pub use remesh::{NormalReport, RemeshOptions, RemeshReport, Remeshed, remesh};
+pub use remesh::{BaseDomain, NormalReport, RemeshOptions, RemeshReport, Remeshed, remesh};
 pub use subdivision::{Detected, detect_subdivision};
 pub use trimesh::{TriMesh, triangle_area};

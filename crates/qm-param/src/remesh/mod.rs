@@ -25,15 +25,18 @@
 //! Holes stay holes: real boundaries are laid on the square's perimeter
 //! unglued, so no surface is added.
 
+mod charts;
 mod cut;
 mod lu;
 mod normal;
 mod resample;
+mod simplify;
 mod square;
 mod surface;
 
 use qm_lift::glam::DVec3;
 use qm_lift::{BaseMesh, Layout, SemiRegularMesh};
+use rayon::prelude::*;
 
 use crate::clean::{CleanReport, clean};
 use crate::{Error, Part, PolyMesh, RemeshFailure, Result, TriMesh};
@@ -106,6 +109,30 @@ pub struct RemeshOptions {
     /// then overlaps itself there); by default that is an error
     /// ([`RemeshFailure::Folds`]), before any sample is made.
     pub accept_folds: bool,
+    /// How the base domain is made.
+    pub domain: BaseDomain,
+    /// The lowest PSNR (against the input's bounding box diagonal) a remesh
+    /// through a simplified base domain may have: the remesher measures
+    /// it, and below this fails with [`RemeshFailure::TooFar`]. 0 accepts
+    /// any.
+    pub min_psnr: f64,
+}
+
+/// How the remesher makes its base domain.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum BaseDomain {
+    /// One square per component, and where that fails (a part that does
+    /// not map, glue or lay out on a square, or whose map folds), a
+    /// simplified base domain.
+    #[default]
+    Auto,
+    /// One square per component: a cut to a disk, mapped onto a square of
+    /// base quads (modules `cut`, `square`).
+    Square,
+    /// A simplified base domain of many charts, every input vertex mapped
+    /// onto it (modules `simplify`, `charts`; MAPS).
+    Charts,
 }
 
 impl RemeshOptions {
@@ -123,6 +150,8 @@ impl RemeshOptions {
         normal: true,
         max_memory: DEFAULT_MAX_MEMORY,
         accept_folds: false,
+        domain: BaseDomain::Auto,
+        min_psnr: DEFAULT_MIN_PSNR,
     };
 
     /// Sets the level.
@@ -164,6 +193,18 @@ impl RemeshOptions {
     /// Sets whether folded maps are remeshed anyway.
     pub const fn with_accept_folds(mut self, accept: bool) -> Self {
         self.accept_folds = accept;
+        self
+    }
+
+    /// Sets how the base domain is made.
+    pub const fn with_domain(mut self, domain: BaseDomain) -> Self {
+        self.domain = domain;
+        self
+    }
+
+    /// Sets the floor of a simplified base domain's remesh, in dB.
+    pub const fn with_min_psnr(mut self, db: f64) -> Self {
+        self.min_psnr = db;
         self
     }
 
@@ -213,6 +254,14 @@ pub struct RemeshReport {
     /// With [`RemeshOptions::normal`]: how many samples were placed on
     /// their normal ray.
     pub normal: Option<NormalReport>,
+    /// The base domain made: `"square"` or `"charts"`.
+    pub domain: &'static str,
+    /// Why the one-square layout was not used, when
+    /// [`BaseDomain::Auto`] fell back to charts.
+    pub fallback: Option<String>,
+    /// Through charts: the remesh's PSNR against the input, measured
+    /// ([`RemeshOptions::min_psnr`]).
+    pub psnr: Option<f64>,
 }
 
 /// What normal placement did ([`RemeshOptions::normal`]).
@@ -226,7 +275,177 @@ pub struct NormalReport {
 }
 
 /// Remeshes `mesh` into a semi-regular quad mesh.
+///
+/// With [`BaseDomain::Auto`], a mesh the one-square layout cannot take is
+/// remeshed through a simplified base domain, and the report says why
+/// ([`RemeshReport::fallback`]).
 pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
+    match options.domain {
+        BaseDomain::Square => remesh_square(mesh, options),
+        BaseDomain::Charts => remesh_charts(mesh, options),
+        BaseDomain::Auto => match remesh_square(mesh, options) {
+            Err(
+                e @ Error::Remesh {
+                    failure:
+                        RemeshFailure::DoesNotMap { .. }
+                        | RemeshFailure::DoesNotGlue { .. }
+                        | RemeshFailure::TooManySegments
+                        | RemeshFailure::Folds { .. },
+                    ..
+                },
+            ) => {
+                let mut remeshed = remesh_charts(mesh, options)?;
+                remeshed.report.fallback = Some(e.to_string());
+                Ok(remeshed)
+            }
+            other => other,
+        },
+    }
+}
+
+/// The default floor of a remesh through a simplified base domain
+/// ([`RemeshOptions::min_psnr`]), in dB: a remesh below it is visibly not
+/// the input.
+pub const DEFAULT_MIN_PSNR: f64 = 50.0;
+
+/// Samples each way of the remesher's own measure of its distance to the
+/// input ([`RemeshReport::psnr`]).
+const CHECK_SAMPLES: usize = 50_000;
+
+/// The base domain's fewest triangles, over all components, at the level
+/// chosen: the deepest level whose share of the samples leaves at least this
+/// many base triangles is taken.
+const MIN_BASE_TRIANGLES: f64 = 48.0;
+
+/// Sweeps of smoothing of the map onto the base domain (`charts::smooth`).
+const SMOOTHING_ROUNDS: usize = 10;
+
+/// Remeshes through a simplified base domain (modules `simplify`, `charts`).
+fn remesh_charts(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
+    let input_triangles = mesh.faces().map(|f| f.len().saturating_sub(2) as u64).sum();
+    check_memory(input_triangles, 0, options.max_memory)?;
+    let cleaned = clean(mesh)?;
+    let input_vertices: usize = cleaned.components.iter().map(|c| c.positions.len()).sum();
+    let total_area: f64 = cleaned.components.iter().map(TriMesh::area).sum();
+    if cleaned.components.is_empty() || total_area <= 0.0 {
+        return Err(Error::remesh(RemeshFailure::NothingLeft));
+    }
+    let target = (options.samples_per_vertex.min(MAX_SAMPLES_PER_VERTEX) * input_vertices as f64)
+        .min(options.max_samples as f64);
+    let cap =
+        (MAX_SAMPLES_PER_VERTEX * input_vertices as f64).min(SHARE_SLACK * SHARE_SLACK * target);
+    let shares: Vec<f64> = cleaned
+        .components
+        .iter()
+        .map(|c| c.area() / total_area)
+        .collect();
+    // Base triangles for the whole mesh at a level.
+    let triangles_at = |level: u32| target / (3.0 * (1u64 << (2 * level)) as f64);
+    let mut level = options.level.unwrap_or_else(|| {
+        (1..=qm_lift::MAX_LEVEL)
+            .rev()
+            .find(|&l| triangles_at(l) >= MIN_BASE_TRIANGLES)
+            .unwrap_or(1)
+    });
+    let goal = |c: usize, level: u32| (shares[c] * triangles_at(level)).round() as usize;
+    let simplify_parts = |level: u32, parts: &[usize]| -> Vec<(usize, simplify::Base)> {
+        parts
+            .par_iter()
+            .map(|&c| {
+                (
+                    c,
+                    simplify::simplify(&cleaned.components[c], goal(c, level)),
+                )
+            })
+            .collect()
+    };
+    let all: Vec<usize> = (0..cleaned.components.len()).collect();
+    let mut bases: Vec<simplify::Base> = simplify_parts(level, &all)
+        .into_iter()
+        .map(|(_, b)| b)
+        .collect();
+    if options.level.is_none() {
+        // Parts that could not come down to their share (small separate
+        // parts, each at least a few triangles) keep their base at any
+        // level; the others take their share of the samples. The deepest
+        // level where that fits under the cap is taken, and the others are
+        // simplified again for it.
+        let stuck: Vec<bool> = (0..bases.len())
+            .map(|c| bases[c].triangles.len() > goal(c, level).max(1))
+            .collect();
+        let fixed: f64 = (0..bases.len())
+            .filter(|&c| stuck[c])
+            .map(|c| 3.0 * bases[c].triangles.len() as f64)
+            .sum();
+        let free_share: f64 = (0..bases.len())
+            .filter(|&c| !stuck[c])
+            .map(|c| shares[c])
+            .sum();
+        let fits = |l: u32| fixed * (1u64 << (2 * l)) as f64 + free_share * target <= cap;
+        let chosen = (1..=level).rev().find(|&l| fits(l)).unwrap_or(1);
+        if chosen != level {
+            level = chosen;
+            let free: Vec<usize> = (0..bases.len()).filter(|&c| !stuck[c]).collect();
+            for (c, base) in simplify_parts(level, &free) {
+                bases[c] = base;
+            }
+        }
+    }
+    let quads: usize = bases.iter().map(|b| 3 * b.triangles.len()).sum();
+    let samples = quads as f64 * ((1u64 << level) as f64 + 1.0).powi(2);
+    check_memory(input_triangles, samples as u64, options.max_memory)?;
+    bases
+        .par_iter_mut()
+        .zip(&cleaned.components)
+        .for_each(|(base, component)| charts::smooth(component, base, SMOOTHING_ROUNDS));
+    let mut patches = Vec::with_capacity(bases.len());
+    for (c, (base, component)) in bases.iter().zip(&cleaned.components).enumerate() {
+        let (patch, folded) = charts::resample(component, base, level, options.fit_rounds)
+            .map_err(|e| e.in_part(|| part(c, component)))?;
+        if folded > 0 && !options.accept_folds {
+            let failure = RemeshFailure::Folds {
+                folded,
+                triangles: component.triangles.len(),
+            };
+            return Err(Error::remesh(failure).in_part(|| part(c, component)));
+        }
+        check_patch(c, component, 0.0, folded, &patch.positions)?;
+        let report = ComponentReport {
+            vertices: component.positions.len(),
+            triangles: component.triangles.len(),
+            base_quads: 3 * base.triangles.len(),
+            extra_cuts: 0,
+            stretch: 0.0,
+            flipped: folded,
+            uncovered: patch.uncovered,
+        };
+        patches.push((patch, report));
+    }
+    let mut remeshed = finish(cleaned, patches, level, options)?;
+    remeshed.report.domain = "charts";
+    let psnr = measure(mesh, &remeshed.mesh)?;
+    remeshed.report.psnr = Some(psnr);
+    if psnr < options.min_psnr {
+        return Err(Error::remesh(RemeshFailure::TooFar {
+            psnr,
+            floor: options.min_psnr,
+        }));
+    }
+    Ok(remeshed)
+}
+
+/// The PSNR of `remesh` against `input` (Metro's symmetric RMS distance,
+/// [`CHECK_SAMPLES`] each way, over the input's bounding box diagonal).
+fn measure(input: &PolyMesh, remesh: &SemiRegularMesh) -> Result<f64> {
+    let layout = remesh.layout();
+    let ours = PolyMesh::from_faces(remesh.positions().to_vec(), &layout.quads(layout.level()));
+    let options = crate::distance::DistanceOptions::default().with_samples(CHECK_SAMPLES);
+    let report = crate::distance::distance(input, &ours, &options)?;
+    Ok(report.psnr_db)
+}
+
+/// Remeshes each component onto one square (the first design).
+fn remesh_square(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     let input_triangles = mesh.faces().map(|f| f.len().saturating_sub(2) as u64).sum();
     check_memory(input_triangles, 0, options.max_memory)?;
     let mut cleaned = clean(mesh)?;
@@ -375,9 +594,35 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
             return Err(Error::remesh(failure).in_part(|| part(c, component)));
         }
     }
-    // Sample and stitch every component, then join them; meanwhile, the
-    // input surface for normal placement is built.
-    let sample = || -> Result<_> {
+    // Sample and stitch every component.
+    let mut patches = Vec::with_capacity(charts.len());
+    for (c, ((disk, map, cuts, _), component)) in charts.iter().zip(&cleaned.components).enumerate()
+    {
+        let patch = resample::resample(disk, map, level, options.fit_rounds);
+        check_patch(c, component, map.stretch, map.flipped, &patch.positions)?;
+        let report = ComponentReport {
+            vertices: component.positions.len(),
+            triangles: component.triangles.len(),
+            base_quads: map.k * map.k,
+            extra_cuts: *cuts,
+            stretch: map.stretch,
+            flipped: map.flipped,
+            uncovered: patch.uncovered,
+        };
+        patches.push((patch, report));
+    }
+    finish(cleaned, patches, level, options)
+}
+
+/// Joins the components' patches into one semi-regular mesh and, with
+/// [`RemeshOptions::normal`], places its samples for normal details.
+fn finish(
+    cleaned: crate::clean::Cleaned,
+    patches: Vec<(resample::Patch, ComponentReport)>,
+    level: u32,
+    options: &RemeshOptions,
+) -> Result<Remeshed> {
+    let join = || -> Result<_> {
         let mut faces = Vec::new();
         let mut grids = Vec::new();
         let mut positions: Vec<DVec3> = Vec::new();
@@ -387,11 +632,7 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
         let mut first_triangle = 0u32;
         let mut base_vertices = 0u32;
         let mut reports = Vec::new();
-        for (c, ((disk, map, cuts, _), component)) in
-            charts.iter().zip(&cleaned.components).enumerate()
-        {
-            let patch = resample::resample(disk, map, level, options.fit_rounds);
-            check_patch(c, component, map, &patch.positions)?;
+        for ((patch, report), component) in patches.into_iter().zip(&cleaned.components) {
             let (bo, so) = (base_vertices, positions.len() as u32);
             faces.extend(patch.faces.iter().map(|f| f.map(|v| v + bo)));
             grids.extend(patch.grids.iter().map(|&s| s + so));
@@ -399,15 +640,7 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
             triangles.extend(patch.triangles.iter().map(|&t| t + first_triangle));
             first_triangle += component.triangles.len() as u32;
             base_vertices += patch.base_vertices;
-            reports.push(ComponentReport {
-                vertices: component.positions.len(),
-                triangles: component.triangles.len(),
-                base_quads: map.k * map.k,
-                extra_cuts: *cuts,
-                stretch: map.stretch,
-                flipped: map.flipped,
-                uncovered: patch.uncovered,
-            });
+            reports.push(report);
         }
         let base = BaseMesh::new(base_vertices, faces).map_err(|e| {
             Error::remesh(RemeshFailure::Step(format!(
@@ -420,7 +653,7 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
         let triangles: Vec<u32> = source.iter().map(|&v| triangles[v as usize]).collect();
         Ok((mesh, triangles, reports))
     };
-    let (sampled, surface) = rayon::join(sample, || {
+    let (sampled, surface) = rayon::join(join, || {
         options
             .normal
             .then(|| surface::Surface::new(&cleaned.components))
@@ -450,6 +683,9 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
             components: reports,
             level,
             normal: normal_report,
+            domain: "square",
+            fallback: None,
+            psnr: None,
         },
     })
 }
@@ -466,7 +702,8 @@ const STRAY: f64 = 0.25;
 fn check_patch(
     c: usize,
     component: &TriMesh,
-    map: &square::SquareMap,
+    stretch: f64,
+    folded: usize,
     samples: &[DVec3],
 ) -> Result<()> {
     let (lo, hi) = component.positions.iter().fold(
@@ -484,8 +721,8 @@ fn check_patch(
     }
     Err(Error::remesh(RemeshFailure::DoesNotMap {
         stray,
-        stretch: map.stretch,
-        folded: map.flipped,
+        stretch,
+        folded,
     })
     .in_part(|| part(c, component)))
 }

@@ -366,6 +366,116 @@ fn fit(positions: &mut [DVec3], id: &[u32], fine: &[DVec3], n: usize, rounds: us
     }
 }
 
+/// Adds, per sample of the `(n + 1)^2` grid `id`, the hat-weighted
+/// residuals of the bilinear quads through `positions` at the `(2n + 1)^2`
+/// surface nodes `nodes`, and the weights (the lumped mass): the sums of one
+/// Jacobi step of the fit's normal equations, node by node.
+fn scatter_residuals(
+    positions: &[DVec3],
+    id: &[u32],
+    nodes: &[DVec3],
+    n: usize,
+    sums: &mut [(DVec3, f64)],
+) {
+    let (side, fine_side) = (n + 1, 2 * n + 1);
+    for fj in 0..fine_side {
+        let (ys, wy, qy) = quadrature_axis(n, fj);
+        for fi in 0..fine_side {
+            let (xs, wx, qx) = quadrature_axis(n, fi);
+            let corners: [(u32, f64); 4] = std::array::from_fn(|c| {
+                let (a, b) = (c % 2, c / 2);
+                (id[ys[b] * side + xs[a]], wx[a] * wy[b])
+            });
+            let mut value = DVec3::ZERO;
+            for &(s, w) in &corners {
+                value += positions[s as usize] * w;
+            }
+            let residual = nodes[fj * fine_side + fi] - value;
+            let q = qx * qy;
+            for (s, w) in corners {
+                if w > 0.0 {
+                    let sum = &mut sums[s as usize];
+                    sum.0 += residual * (w * q);
+                    sum.1 += w * q;
+                }
+            }
+        }
+    }
+}
+
+/// [`fit`] over many grids: `grids` holds per base face the `(n + 1)^2`
+/// sample ids of its grid (row-major), `fine` per face the surface at its
+/// `(2n + 1)^2` refinement. Each face's border nodes count half (a quarter
+/// at corners), the rest coming from the faces across; the normal
+/// equations are solved by `rounds` Jacobi steps with the lumped mass, as
+/// in [`fit`].
+pub(super) fn fit_grids(
+    positions: &mut [DVec3],
+    grids: &[u32],
+    fine: &[DVec3],
+    n: usize,
+    rounds: usize,
+) {
+    let side = n + 1;
+    let fine_side = 2 * n + 1;
+    let faces = grids.len() / (side * side);
+    let chunk = faces.div_ceil(rayon::current_num_threads().max(1)).max(1);
+    // No step moves a sample further than half its shortest grid edge: where
+    // the map jumps (a fold, a chart seam) the fine nodes around a sample
+    // may lie far from it, and the fit must not throw it there.
+    let mut reach = vec![f64::INFINITY; positions.len()];
+    for f in 0..faces {
+        let id = &grids[f * side * side..(f + 1) * side * side];
+        for j in 0..side {
+            for i in 0..side {
+                let s = id[j * side + i] as usize;
+                for (a, b) in [(i + 1, j), (i, j + 1)] {
+                    if a < side && b < side {
+                        let t = id[b * side + a] as usize;
+                        let half = 0.5 * positions[s].distance(positions[t]);
+                        reach[s] = reach[s].min(half);
+                        reach[t] = reach[t].min(half);
+                    }
+                }
+            }
+        }
+    }
+    for _ in 0..rounds {
+        let now: &[DVec3] = positions;
+        let sums = (0..faces)
+            .collect::<Vec<_>>()
+            .par_chunks(chunk)
+            .map(|chunk| {
+                let mut sums = vec![(DVec3::ZERO, 0.0f64); now.len()];
+                for &f in chunk {
+                    let id = &grids[f * side * side..(f + 1) * side * side];
+                    let nodes = &fine[f * fine_side * fine_side..(f + 1) * fine_side * fine_side];
+                    scatter_residuals(now, id, nodes, n, &mut sums);
+                }
+                sums
+            })
+            .reduce_with(|mut a, b| {
+                for (x, y) in a.iter_mut().zip(b) {
+                    x.0 += y.0;
+                    x.1 += y.1;
+                }
+                a
+            })
+            .unwrap_or_default();
+        for ((p, (u, d)), &limit) in positions.iter_mut().zip(sums).zip(&reach) {
+            if d > 0.0 {
+                let step = u / d;
+                let length = step.length();
+                *p += if length > limit {
+                    step * (limit / length)
+                } else {
+                    step
+                };
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -409,33 +519,10 @@ mod tests {
     /// The fit as the normal equations read, node by node scattering its
     /// residual to its corners (what `fit` gathers per grid point).
     fn fit_by_nodes(positions: &mut [DVec3], id: &[u32], fine: &[DVec3], n: usize, rounds: usize) {
-        let (side, fine_side) = (n + 1, 2 * n + 1);
         for _ in 0..rounds {
-            let mut num = vec![DVec3::ZERO; positions.len()];
-            let mut den = vec![0.0f64; positions.len()];
-            for fj in 0..fine_side {
-                let (ys, wy, qy) = quadrature_axis(n, fj);
-                for fi in 0..fine_side {
-                    let (xs, wx, qx) = quadrature_axis(n, fi);
-                    let corners: [(u32, f64); 4] = std::array::from_fn(|c| {
-                        let (a, b) = (c % 2, c / 2);
-                        (id[ys[b] * side + xs[a]], wx[a] * wy[b])
-                    });
-                    let mut value = DVec3::ZERO;
-                    for &(s, w) in &corners {
-                        value += positions[s as usize] * w;
-                    }
-                    let residual = fine[fj * fine_side + fi] - value;
-                    let q = qx * qy;
-                    for (s, w) in corners {
-                        if w > 0.0 {
-                            num[s as usize] += residual * (w * q);
-                            den[s as usize] += w * q;
-                        }
-                    }
-                }
-            }
-            for ((p, &u), &d) in positions.iter_mut().zip(&num).zip(&den) {
+            let mut sums = vec![(DVec3::ZERO, 0.0f64); positions.len()];
+            scatter_residuals(positions, id, fine, n, &mut sums);
+            for (p, (u, d)) in positions.iter_mut().zip(sums) {
                 if d > 0.0 {
                     *p += u / d;
                 }

@@ -1,0 +1,937 @@
+//! Sampling a component through its base domain (module `simplify`).
+//!
+//! Each base triangle becomes three quads, through its centroid and its
+//! edges' midpoints; the quad at corner `A` is where `A`'s barycentric
+//! coordinate is the largest. So every quad lies in the star of one base
+//! vertex, and is sampled in that vertex's *chart*: its star flattened
+//! conformally around it, each base triangle of the star mapped linearly,
+//! and every input triangle whose three vertices the map puts in the star
+//! drawn there through their barycentric coordinates. A grid point of the
+//! quad (its bilinear place in the base triangle) is looked up among the
+//! drawn triangles and takes the surface point there. Grid points on an
+//! edge or corner shared by several quads are one sample (the `Layout`'s
+//! numbering), made once, so the remesh has no cracks.
+
+use std::collections::HashMap;
+
+use qm_lift::glam::{DVec2, DVec3};
+use qm_lift::{BaseMesh, Layout};
+use rayon::prelude::*;
+
+use super::resample::{Patch, fit_grids};
+use super::simplify::{Base, Location};
+use crate::{Error, RemeshFailure, Result, TriMesh};
+
+/// The quads of base triangle `t`: corner `c`'s quad has corners `t[c]`,
+/// the midpoint of `t[c] t[c+1]`, the centroid and the midpoint of
+/// `t[c+2] t[c]`, counter-clockwise; in barycentric coordinates of `t`.
+fn quad_corners(c: usize) -> [[f64; 3]; 4] {
+    let mut e = [[0.0; 3]; 3];
+    for (i, row) in e.iter_mut().enumerate() {
+        row[i] = 1.0;
+    }
+    let mid = |a: usize, b: usize| std::array::from_fn(|i| 0.5 * (e[a][i] + e[b][i]));
+    [
+        e[c],
+        mid(c, (c + 1) % 3),
+        [1.0 / 3.0; 3],
+        mid(c, (c + 2) % 3),
+    ]
+}
+
+/// Bilinear point `(s, t)` of a quad given by its corners.
+fn bilinear(q: &[[f64; 3]; 4], s: f64, t: f64) -> [f64; 3] {
+    let w = [(1.0 - s) * (1.0 - t), s * (1.0 - t), s * t, (1.0 - s) * t];
+    std::array::from_fn(|i| w[0] * q[0][i] + w[1] * q[1][i] + w[2] * q[2][i] + w[3] * q[3][i])
+}
+
+/// The quad base mesh of a base triangle mesh: vertices are the base
+/// vertices (compacted, in order of first use), then one per edge, then
+/// one per triangle. Returns the quads, the vertex count, per quad its
+/// triangle and corner, and the compact id of each base vertex.
+pub(super) struct Quads {
+    pub faces: Vec<[u32; 4]>,
+    pub vertex_count: u32,
+    pub owner: Vec<(u32, u8)>,
+    pub compact: HashMap<u32, u32>,
+}
+
+pub(super) fn quads(triangles: &[[u32; 3]]) -> Quads {
+    let mut compact = HashMap::new();
+    for t in triangles {
+        for &v in t {
+            let next = compact.len() as u32;
+            compact.entry(v).or_insert(next);
+        }
+    }
+    let corners = compact.len() as u32;
+    let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
+    for t in triangles {
+        for i in 0..3 {
+            let (a, b) = (t[i], t[(i + 1) % 3]);
+            let next = corners + edges.len() as u32;
+            edges.entry((a.min(b), a.max(b))).or_insert(next);
+        }
+    }
+    let first_centre = corners + edges.len() as u32;
+    let mut faces = Vec::with_capacity(3 * triangles.len());
+    let mut owner = Vec::with_capacity(3 * triangles.len());
+    for (ti, t) in triangles.iter().enumerate() {
+        let edge = |a: u32, b: u32| edges[&(a.min(b), a.max(b))];
+        let centre = first_centre + ti as u32;
+        for c in 0..3 {
+            let (a, b, d) = (t[c], t[(c + 1) % 3], t[(c + 2) % 3]);
+            faces.push([compact[&a], edge(a, b), centre, edge(d, a)]);
+            owner.push((ti as u32, c as u8));
+        }
+    }
+    Quads {
+        faces,
+        vertex_count: first_centre + triangles.len() as u32,
+        owner,
+        compact,
+    }
+}
+
+/// One base vertex's chart.
+struct Chart {
+    /// Per star triangle (index into the base triangles), the 2D places of
+    /// its corners.
+    star: HashMap<u32, [DVec2; 3]>,
+    /// The drawn input triangles: index and 2D corners.
+    drawn: Vec<(u32, [DVec2; 3])>,
+    grid: Buckets,
+    /// Input triangles that reach into the unfolded triangles around the
+    /// star, looked up in where none of the star's own holds a point.
+    outer: Vec<(u32, [DVec2; 3])>,
+    outer_grid: Buckets,
+}
+
+/// A uniform grid of buckets over the drawn triangles.
+struct Buckets {
+    lo: DVec2,
+    cell: f64,
+    nx: usize,
+    ny: usize,
+    cells: Vec<Vec<u32>>,
+}
+
+impl Buckets {
+    fn new(drawn: &[(u32, [DVec2; 3])]) -> Buckets {
+        let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+        for (_, q) in drawn {
+            for p in q {
+                lo = lo.min(*p);
+                hi = hi.max(*p);
+            }
+        }
+        if drawn.is_empty() {
+            return Buckets {
+                lo: DVec2::ZERO,
+                cell: 1.0,
+                nx: 0,
+                ny: 0,
+                cells: Vec::new(),
+            };
+        }
+        let extent = (hi - lo).max(DVec2::splat(1e-300));
+        let side = (drawn.len() as f64).sqrt().ceil().max(1.0);
+        let cell = (extent.x.max(extent.y) / side).max(1e-300);
+        let nx = ((extent.x / cell).ceil() as usize).clamp(1, 4096);
+        let ny = ((extent.y / cell).ceil() as usize).clamp(1, 4096);
+        let cell = (extent.x / nx as f64).max(extent.y / ny as f64);
+        let mut cells = vec![Vec::new(); nx * ny];
+        let at =
+            |p: f64, lo: f64, n: usize| (((p - lo) / cell).floor().max(0.0) as usize).min(n - 1);
+        for (k, (_, q)) in drawn.iter().enumerate() {
+            let a = q[0].min(q[1]).min(q[2]);
+            let b = q[0].max(q[1]).max(q[2]);
+            for j in at(a.y, lo.y, ny)..=at(b.y, lo.y, ny) {
+                for i in at(a.x, lo.x, nx)..=at(b.x, lo.x, nx) {
+                    cells[j * nx + i].push(k as u32);
+                }
+            }
+        }
+        Buckets {
+            lo,
+            cell,
+            nx,
+            ny,
+            cells,
+        }
+    }
+
+    /// The bucket of `p` and then rings around it out to `reach` cells.
+    fn near(&self, p: DVec2, reach: usize) -> impl Iterator<Item = &u32> {
+        let (nx, ny) = (self.nx as i64, self.ny as i64);
+        let i = ((p.x - self.lo.x) / self.cell).floor() as i64;
+        let j = ((p.y - self.lo.y) / self.cell).floor() as i64;
+        let r = reach as i64;
+        (j - r..=j + r)
+            .flat_map(move |b| (i - r..=i + r).map(move |a| (a, b)))
+            .filter(move |&(a, b)| a >= 0 && b >= 0 && a < nx && b < ny)
+            .flat_map(move |(a, b)| self.cells[(b * nx + a) as usize].iter())
+    }
+}
+
+/// Barycentric coordinates of `x` in 2D triangle `q`.
+fn barycentric(q: &[DVec2; 3], x: DVec2) -> [f64; 3] {
+    let area = (q[1] - q[0]).perp_dot(q[2] - q[0]);
+    [
+        (q[1] - x).perp_dot(q[2] - x) / area,
+        (q[2] - x).perp_dot(q[0] - x) / area,
+        (q[0] - x).perp_dot(q[1] - x) / area,
+    ]
+}
+
+/// Where a lookup landed: input triangle, barycentric coordinates, and
+/// whether it was inside (not the nearest outside).
+#[derive(Clone, Copy)]
+struct Hit {
+    triangle: u32,
+    bary: [f64; 3],
+    inside: bool,
+}
+
+/// The drawn triangle nearest to holding `x`: its index, its smallest
+/// barycentric coordinate (non-negative inside) and its coordinates.
+fn nearest(
+    drawn: &[(u32, [DVec2; 3])],
+    grid: &Buckets,
+    x: DVec2,
+) -> Option<(f64, usize, [f64; 3])> {
+    let mut best: Option<(f64, usize, [f64; 3])> = None;
+    for reach in [0usize, 1, 3] {
+        for &k in grid.near(x, reach) {
+            let l = barycentric(&drawn[k as usize].1, x);
+            let worst = l[0].min(l[1]).min(l[2]);
+            if best.is_none_or(|b| worst > b.0) {
+                best = Some((worst, k as usize, l));
+            }
+            if worst >= -1e-12 {
+                return best;
+            }
+        }
+    }
+    best
+}
+
+impl Chart {
+    fn locate(&self, x: DVec2) -> Option<Hit> {
+        let mut best = nearest(&self.drawn, &self.grid, x).map(|(w, k, l)| (w, self.drawn[k].0, l));
+        if best.is_none_or(|b| b.0 < -1e-9)
+            && let Some((w, k, l)) = nearest(&self.outer, &self.outer_grid, x)
+            && best.is_none_or(|b| w > b.0)
+        {
+            best = Some((w, self.outer[k].0, l));
+        }
+        if best.is_none() {
+            for (t, q) in &self.drawn {
+                let l = barycentric(q, x);
+                let worst = l[0].min(l[1]).min(l[2]);
+                if best.is_none_or(|b| worst > b.0) {
+                    best = Some((worst, *t, l));
+                }
+            }
+        }
+        let (worst, triangle, mut l) = best?;
+        if worst < 0.0 {
+            for v in &mut l {
+                *v = v.max(0.0);
+            }
+            let s: f64 = l.iter().sum();
+            for v in &mut l {
+                *v /= s;
+            }
+        }
+        Some(Hit {
+            triangle,
+            bary: l,
+            inside: worst >= -1e-9,
+        })
+    }
+}
+
+/// The ring of base vertex `a`: star triangles in order around it, and the
+/// vertices `w_i` with triangle `i` being `(a, w_i, w_i+1)`.
+fn base_ring(a: u32, star: &[u32], triangles: &[[u32; 3]]) -> (Vec<u32>, Vec<u32>, bool) {
+    let spokes: Vec<(u32, u32, u32)> = star
+        .iter()
+        .map(|&t| {
+            let tri = triangles[t as usize];
+            let c = tri.iter().position(|&w| w == a).expect("star triangle");
+            (tri[(c + 1) % 3], tri[(c + 2) % 3], t)
+        })
+        .collect();
+    let closed = spokes.iter().all(|s| spokes.iter().any(|o| o.1 == s.0));
+    let start = spokes
+        .iter()
+        .position(|s| !spokes.iter().any(|o| o.1 == s.0))
+        .unwrap_or(0);
+    let mut verts = vec![spokes[start].0];
+    let mut order = Vec::new();
+    let mut at = start;
+    loop {
+        let (_, y, t) = spokes[at];
+        order.push(t);
+        if order.len() == spokes.len() {
+            if !closed {
+                verts.push(y);
+            }
+            break;
+        }
+        match spokes.iter().position(|s| s.0 == y) {
+            Some(next) => {
+                verts.push(y);
+                at = next;
+            }
+            None => {
+                verts.push(y);
+                break;
+            }
+        }
+    }
+    (verts, order, closed)
+}
+
+/// The 2D places of `a`'s ring vertices: each star triangle keeps its edge
+/// lengths at `a`, and the angles at `a` are scaled to a full turn (on a
+/// boundary, only as far as needed to stay under one). So a base triangle
+/// and its neighbour across an edge sit almost as in 3D in the charts of
+/// both ends of that edge, and the two charts agree where their quads meet.
+/// Where a scaled angle would open beyond `0.9 pi`, the angles are spread
+/// evenly instead.
+fn flatten_star(a: DVec3, ring: &[DVec3], closed: bool, triangles: usize) -> Vec<DVec2> {
+    let k = ring.len();
+    let spokes: Vec<DVec3> = ring.iter().map(|&p| p - a).collect();
+    let lengths: Vec<f64> = spokes.iter().map(|s| s.length()).collect();
+    let angles: Vec<f64> = (0..triangles)
+        .map(|i| spokes[i].angle_between(spokes[(i + 1) % k]))
+        .collect();
+    let total: f64 = angles.iter().sum();
+    let scale = if closed {
+        std::f64::consts::TAU / total
+    } else {
+        (1.8 * std::f64::consts::PI / total).min(1.0)
+    };
+    let turn = if closed {
+        std::f64::consts::TAU
+    } else {
+        std::f64::consts::PI
+    };
+    let kept = total > 0.0
+        && lengths.iter().all(|&l| l > 0.0)
+        && angles
+            .iter()
+            .all(|&t| t > 0.0 && t * scale < 0.9 * std::f64::consts::PI);
+    let step: Vec<f64> = if kept {
+        angles.iter().map(|&t| t * scale).collect()
+    } else {
+        let even = (turn / triangles as f64).min(2.0 * std::f64::consts::FRAC_PI_3);
+        vec![even; triangles]
+    };
+    let mean = lengths.iter().sum::<f64>() / k as f64;
+    let mut phi = 0.0f64;
+    (0..k)
+        .map(|i| {
+            let r = if lengths[i] > 0.0 {
+                lengths[i]
+            } else {
+                mean.max(1e-300)
+            };
+            let p = DVec2::new(r * phi.cos(), r * phi.sin());
+            if i < step.len() {
+                phi += step[i];
+            }
+            p
+        })
+        .collect()
+}
+
+/// Per sampled point: its surface position, input triangle, and whether a
+/// drawn triangle held it (else it was clamped onto the nearest).
+type Sampled = (DVec3, u32, bool);
+
+/// A quad's samples and fine nodes (row-major), with the quad's index.
+type QuadSamples = (usize, Vec<Option<Sampled>>, Vec<Option<Sampled>>);
+
+/// Samples `mesh` through `base` at level `level`: a patch of `3 T` base
+/// quads for `T` base triangles, fitted with `fit_rounds` rounds. Also
+/// returns how many input triangles fold in the charts that sample them.
+pub fn resample(
+    mesh: &TriMesh,
+    base: &Base,
+    level: u32,
+    fit_rounds: usize,
+) -> Result<(Patch, usize)> {
+    let quads = quads(&base.triangles);
+    let base_mesh = BaseMesh::new(quads.vertex_count, quads.faces.clone()).map_err(|e| {
+        Error::remesh(RemeshFailure::Step(format!(
+            "the base domain is not a valid quad mesh: {e}"
+        )))
+    })?;
+    let layout = Layout::new(base_mesh, level)?;
+    let n = layout.n();
+
+    // Input vertices per base triangle, and triangles per input vertex.
+    let mut in_face: Vec<Vec<u32>> = vec![Vec::new(); base.triangles.len()];
+    for (v, l) in base.location.iter().enumerate() {
+        if let Location::Face(f, _) = *l {
+            in_face[f as usize].push(v as u32);
+        }
+    }
+    let mut vertex_triangles: Vec<Vec<u32>> = vec![Vec::new(); mesh.positions.len()];
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        for &v in tri {
+            vertex_triangles[v as usize].push(t as u32);
+        }
+    }
+    let star = stars(mesh, base);
+    let mut vertices: Vec<u32> = star.keys().copied().collect();
+    vertices.sort_unstable_by_key(|v| quads.compact[v]);
+
+    // Quads per base vertex.
+    let mut quads_at: HashMap<u32, Vec<usize>> = HashMap::new();
+    for (q, &(t, c)) in quads.owner.iter().enumerate() {
+        quads_at
+            .entry(base.triangles[t as usize][c as usize])
+            .or_default()
+            .push(q);
+    }
+
+    let side = n + 1;
+    let fine_side = 2 * n + 1;
+    let fine_wanted = fit_rounds > 0;
+    // Per chart: (quad, samples row-major, fine nodes row-major), and folds.
+    let per_chart: Vec<(Vec<QuadSamples>, usize)> = vertices
+        .par_iter()
+        .map(|&a| {
+            let chart = build_chart(a, &star[&a], mesh, base, &in_face, &vertex_triangles);
+            let folded = chart.folded(base);
+            let chart = chart.chart;
+            let mut out = Vec::new();
+            for &q in &quads_at[&a] {
+                let (t, c) = quads.owner[q];
+                let corners = quad_corners(c as usize);
+                let place = chart.star[&t];
+                let sample = |s: f64, u: f64| -> Option<Sampled> {
+                    let b = bilinear(&corners, s, u);
+                    let x = place[0] * b[0] + place[1] * b[1] + place[2] * b[2];
+                    let hit = chart.locate(x)?;
+                    let tri = mesh.triangles[hit.triangle as usize];
+                    let p = mesh.positions[tri[0] as usize] * hit.bary[0]
+                        + mesh.positions[tri[1] as usize] * hit.bary[1]
+                        + mesh.positions[tri[2] as usize] * hit.bary[2];
+                    Some((p, hit.triangle, hit.inside))
+                };
+                let grid: Vec<Option<Sampled>> = (0..side * side)
+                    .map(|g| sample((g % side) as f64 / n as f64, (g / side) as f64 / n as f64))
+                    .collect();
+                let fine: Vec<Option<Sampled>> = if fine_wanted {
+                    (0..fine_side * fine_side)
+                        .map(|g| {
+                            sample(
+                                (g % fine_side) as f64 / (2 * n) as f64,
+                                (g / fine_side) as f64 / (2 * n) as f64,
+                            )
+                        })
+                        .collect()
+                } else {
+                    Vec::new()
+                };
+                out.push((q, grid, fine));
+            }
+            (out, folded)
+        })
+        .collect();
+
+    let samples = layout.sample_count();
+    let mut positions = vec![DVec3::ZERO; samples];
+    let mut triangles = vec![u32::MAX; samples];
+    let mut fine = vec![
+        DVec3::ZERO;
+        if fine_wanted {
+            layout.face_count() * fine_side * fine_side
+        } else {
+            0
+        }
+    ];
+    let mut uncovered = 0usize;
+    let mut clamped = 0usize;
+    let mut folded = 0usize;
+    for (chart, f) in per_chart {
+        folded += f;
+        for (q, grid, nodes) in chart {
+            for (g, s) in grid.into_iter().enumerate() {
+                let id = layout.face_grid(q)[g] as usize;
+                if triangles[id] != u32::MAX {
+                    continue;
+                }
+                match s {
+                    Some((p, t, inside)) => {
+                        positions[id] = p;
+                        triangles[id] = t;
+                        clamped += usize::from(!inside);
+                    }
+                    None => uncovered += 1,
+                }
+            }
+            for (g, s) in nodes.into_iter().enumerate() {
+                if let Some((p, _, _)) = s {
+                    fine[q * fine_side * fine_side + g] = p;
+                }
+            }
+        }
+    }
+    if uncovered > 0 {
+        return Err(Error::remesh(RemeshFailure::Step(format!(
+            "{uncovered} samples fell outside every chart"
+        ))));
+    }
+    let grids: Vec<u32> = (0..layout.face_count())
+        .flat_map(|f| layout.face_grid(f).iter().copied())
+        .collect();
+    if fine_wanted {
+        fit_grids(&mut positions, &grids, &fine, n, fit_rounds);
+    }
+    Ok((
+        Patch {
+            faces: quads.faces,
+            base_vertices: quads.vertex_count,
+            grids,
+            positions,
+            triangles,
+            uncovered: clamped,
+        },
+        folded,
+    ))
+}
+
+struct Built {
+    chart: Chart,
+    /// Every drawn triangle, folded or not, and its signed area.
+    all: Vec<(u32, [DVec2; 3])>,
+    areas: Vec<f64>,
+    a: u32,
+}
+
+impl Built {
+    /// Drawn triangles that fold and whose centroid lies in this vertex's
+    /// quads (where its barycentric coordinate is the largest).
+    fn folded(&self, base: &Base) -> usize {
+        let mut count = 0;
+        for ((_, q), &area) in self.all.iter().zip(&self.areas) {
+            if area > 0.0 {
+                continue;
+            }
+            let centre = (q[0] + q[1] + q[2]) / 3.0;
+            for (&t, place) in &self.chart.star {
+                let l = barycentric(place, centre);
+                let Some(c) = base.triangles[t as usize].iter().position(|&w| w == self.a) else {
+                    continue;
+                };
+                if l.iter().all(|&x| x >= -1e-12) {
+                    if l[c] >= l[(c + 1) % 3] && l[c] >= l[(c + 2) % 3] {
+                        count += 1;
+                    }
+                    break;
+                }
+            }
+        }
+        count
+    }
+}
+
+/// One base vertex's star: its triangles, each with its corners' 2D places
+/// in the vertex's chart (the vertex at the origin), then the triangles
+/// across its outer edges, unfolded.
+pub(super) struct Star {
+    places: Vec<(u32, [DVec2; 3])>,
+    /// How many of `places` are the star's own.
+    proper: usize,
+}
+
+/// The stars of every base vertex of `base`, keyed by component vertex.
+pub(super) fn stars(mesh: &TriMesh, base: &Base) -> HashMap<u32, Star> {
+    let mut around: HashMap<u32, Vec<u32>> = HashMap::new();
+    for (t, tri) in base.triangles.iter().enumerate() {
+        for &v in tri {
+            around.entry(v).or_default().push(t as u32);
+        }
+    }
+    let mut across: HashMap<(u32, u32), u32> = HashMap::new();
+    for (t, tri) in base.triangles.iter().enumerate() {
+        for i in 0..3 {
+            across.insert((tri[i], tri[(i + 1) % 3]), t as u32);
+        }
+    }
+    around
+        .into_iter()
+        .map(|(a, star)| {
+            let (ring, order, closed) = base_ring(a, &star, &base.triangles);
+            let ring_positions: Vec<DVec3> =
+                ring.iter().map(|&w| mesh.positions[w as usize]).collect();
+            let flat = flatten_star(
+                mesh.positions[a as usize],
+                &ring_positions,
+                closed,
+                order.len(),
+            );
+            let place_of = |w: u32| -> DVec2 {
+                if w == a {
+                    DVec2::ZERO
+                } else {
+                    ring.iter()
+                        .position(|&x| x == w)
+                        .map_or(DVec2::ZERO, |i| flat[i])
+                }
+            };
+            let mut places: Vec<(u32, [DVec2; 3])> = order
+                .iter()
+                .map(|&t| (t, base.triangles[t as usize].map(place_of)))
+                .collect();
+            // The triangles across the star's outer edges, unfolded there
+            // with their own shape: input triangles that reach out of the
+            // star near its quads are drawn whole.
+            for i in 0..order.len() {
+                let (w0, w1) = (ring[i], ring[(i + 1) % ring.len()]);
+                let Some(&t) = across.get(&(w1, w0)) else {
+                    continue;
+                };
+                if places.iter().any(|(s, _)| *s == t) {
+                    continue;
+                }
+                let tri = base.triangles[t as usize];
+                let Some(x) = tri.iter().copied().find(|&v| v != w0 && v != w1) else {
+                    continue;
+                };
+                let (p0, p1, px) = (
+                    mesh.positions[w0 as usize],
+                    mesh.positions[w1 as usize],
+                    mesh.positions[x as usize],
+                );
+                let e = p1 - p0;
+                let len2 = e.length_squared();
+                if len2.is_nan() || len2 <= 0.0 {
+                    continue;
+                }
+                let along = (px - p0).dot(e) / len2;
+                let perp = ((px - p0) - e * along).length() / len2.sqrt();
+                let (q0, q1) = (flat[i], flat[(i + 1) % flat.len()]);
+                let d = q1 - q0;
+                let right = DVec2::new(d.y, -d.x);
+                let qx = q0 + d * along + right * perp;
+                let place = tri.map(|v| {
+                    if v == w0 {
+                        q0
+                    } else if v == w1 {
+                        q1
+                    } else {
+                        qx
+                    }
+                });
+                places.push((t, place));
+            }
+            let proper = order.len();
+            (a, Star { places, proper })
+        })
+        .collect()
+}
+
+/// The place of input vertex `v` in the chart of `star` (centred on `a`),
+/// if the map puts it in the star.
+fn place_in(star: &Star, a: u32, v: u32, base: &Base) -> Option<DVec2> {
+    let star = &star.places[..star.proper];
+    match base.location[v as usize] {
+        Location::Vertex => {
+            if v == a {
+                return Some(DVec2::ZERO);
+            }
+            star.iter().find_map(|(t, place)| {
+                let c = base.triangles[*t as usize].iter().position(|&w| w == v)?;
+                Some(place[c])
+            })
+        }
+        Location::Face(f, b) => {
+            let (_, place) = star.iter().find(|(t, _)| *t == f)?;
+            Some(place[0] * b[0] + place[1] * b[1] + place[2] * b[2])
+        }
+    }
+}
+
+/// Smooths the map of the input onto `base` (PGC smooths MAPS's map too):
+/// `rounds` Gauss-Seidel sweeps move each input vertex that is neither a
+/// base vertex nor on a feature line to the mean-value combination
+/// (Floater) of its neighbours, in the chart of the base vertex nearest it,
+/// when its triangles stay unfolded there. Simplification leaves the input
+/// bunched where it removed vertices late; smoothed, sampling density
+/// follows the surface.
+pub(super) fn smooth(mesh: &TriMesh, base: &mut Base, rounds: usize) {
+    if rounds == 0 {
+        return;
+    }
+    let stars = stars(mesh, base);
+    let n = mesh.positions.len();
+    let mut weights: Vec<Vec<(u32, f64)>> = vec![Vec::new(); n];
+    let mut around: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        for c in 0..3 {
+            let (p, x, y) = (tri[c], tri[(c + 1) % 3], tri[(c + 2) % 3]);
+            around[p as usize].push(t as u32);
+            let at = mesh.positions[p as usize];
+            let (dx, dy) = (
+                mesh.positions[x as usize] - at,
+                mesh.positions[y as usize] - at,
+            );
+            let half = 0.5 * dx.angle_between(dy);
+            if !half.is_finite() {
+                continue;
+            }
+            let tan = half.tan();
+            for (w, d) in [(x, dx), (y, dy)] {
+                let l = d.length();
+                if l > 0.0 {
+                    weights[p as usize].push((w, tan / l));
+                }
+            }
+        }
+    }
+    for _ in 0..rounds {
+        for p in 0..n as u32 {
+            let Location::Face(f, b) = base.location[p as usize] else {
+                continue;
+            };
+            if base.feature[p as usize] || weights[p as usize].is_empty() {
+                continue;
+            }
+            let tri = base.triangles[f as usize];
+            let c = (0..3).max_by(|&i, &j| b[i].total_cmp(&b[j])).unwrap_or(0);
+            let a = tri[c];
+            let star = &stars[&a];
+            let mut sum = DVec2::ZERO;
+            let mut total = 0.0;
+            let mut ok = true;
+            for &(w, weight) in &weights[p as usize] {
+                match place_in(star, a, w, base) {
+                    Some(x) => {
+                        sum += x * weight;
+                        total += weight;
+                    }
+                    None => {
+                        ok = false;
+                        break;
+                    }
+                }
+            }
+            if !ok || total.is_nan() || total <= 0.0 {
+                continue;
+            }
+            let x = sum / total;
+            // Its triangles must stay unfolded in the chart.
+            let unfolded = around[p as usize].iter().all(|&t| {
+                let tri = mesh.triangles[t as usize];
+                let k = tri.iter().position(|&w| w == p).expect("own triangle");
+                let q = place_in(star, a, tri[(k + 1) % 3], base);
+                let r = place_in(star, a, tri[(k + 2) % 3], base);
+                match (q, r) {
+                    (Some(q), Some(r)) => (q - x).perp_dot(r - x) > 0.0,
+                    _ => false,
+                }
+            });
+            if !unfolded {
+                continue;
+            }
+            let found = star.places[..star.proper].iter().find_map(|(t, place)| {
+                let l = barycentric(place, x);
+                l.iter().all(|&v| v >= 0.0).then_some((*t, l))
+            });
+            if let Some((t, l)) = found {
+                base.location[p as usize] = Location::Face(t, l);
+            }
+        }
+    }
+}
+
+fn build_chart(
+    a: u32,
+    places: &Star,
+    mesh: &TriMesh,
+    base: &Base,
+    in_face: &[Vec<u32>],
+    vertex_triangles: &[Vec<u32>],
+) -> Built {
+    // 2D places of the input vertices: in the star's own triangles first,
+    // then (where not already placed) in the unfolded ones.
+    let mut coords: HashMap<u32, (DVec2, bool)> = HashMap::new();
+    coords.insert(a, (DVec2::ZERO, true));
+    for (k, (t, place)) in places.places.iter().enumerate() {
+        let own = k < places.proper;
+        for (c, &w) in base.triangles[*t as usize].iter().enumerate() {
+            coords.entry(w).or_insert((place[c], own));
+        }
+        for &v in &in_face[*t as usize] {
+            if let Location::Face(_, b) = base.location[v as usize] {
+                coords.insert(
+                    v,
+                    (place[0] * b[0] + place[1] * b[1] + place[2] * b[2], own),
+                );
+            }
+        }
+    }
+    let mut seen = std::collections::HashSet::new();
+    let mut all = Vec::new();
+    let mut areas = Vec::new();
+    let mut own = Vec::new();
+    let mut outer = Vec::new();
+    let mut keys: Vec<u32> = coords.keys().copied().collect();
+    keys.sort_unstable();
+    for v in keys {
+        for &t in &vertex_triangles[v as usize] {
+            if !seen.insert(t) {
+                continue;
+            }
+            let tri = mesh.triangles[t as usize];
+            let (Some(&(p, op)), Some(&(q, oq)), Some(&(r, or))) = (
+                coords.get(&tri[0]),
+                coords.get(&tri[1]),
+                coords.get(&tri[2]),
+            ) else {
+                continue;
+            };
+            let area = (q - p).perp_dot(r - p);
+            if op && oq && or {
+                areas.push(area);
+                all.push((t, [p, q, r]));
+                if area > 0.0 {
+                    own.push((t, [p, q, r]));
+                }
+            } else if area > 0.0 {
+                outer.push((t, [p, q, r]));
+            }
+        }
+    }
+    let (grid, outer_grid) = (Buckets::new(&own), Buckets::new(&outer));
+    Built {
+        chart: Chart {
+            star: places.places.iter().copied().collect(),
+            drawn: own,
+            grid,
+            outer,
+            outer_grid,
+        },
+        all,
+        areas,
+        a,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{BaseDomain, RemeshOptions, remesh};
+    use crate::clean::topology;
+    use crate::{Error, PolyMesh, RemeshFailure, TriMesh};
+    use qm_lift::glam::DVec3;
+
+    /// A torus of `m x n` vertices, radii 1 and 0.35, a little bumpy.
+    fn torus(m: usize, n: usize) -> PolyMesh {
+        let mut positions = Vec::new();
+        for i in 0..m {
+            let u = std::f64::consts::TAU * i as f64 / m as f64;
+            for j in 0..n {
+                let v = std::f64::consts::TAU * j as f64 / n as f64;
+                let r = 0.35 + 0.03 * (3.0 * u).sin() * (2.0 * v).cos();
+                positions.push(DVec3::new(
+                    (1.0 + r * v.cos()) * u.cos(),
+                    (1.0 + r * v.cos()) * u.sin(),
+                    r * v.sin(),
+                ));
+            }
+        }
+        let at = |i: usize, j: usize| ((i % m) * n + j % n) as u32;
+        let mut faces = Vec::new();
+        for i in 0..m {
+            for j in 0..n {
+                faces.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                faces.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+            }
+        }
+        PolyMesh::from_faces(positions, &faces)
+    }
+
+    fn options() -> RemeshOptions {
+        RemeshOptions::DEFAULT.with_domain(BaseDomain::Charts)
+    }
+
+    /// The remesh as triangles (each quad split), for its topology.
+    fn triangles(r: &super::super::Remeshed) -> TriMesh {
+        let layout = r.mesh.layout();
+        let triangles = layout
+            .quads(layout.level())
+            .iter()
+            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+            .collect();
+        TriMesh {
+            positions: r.mesh.positions().to_vec(),
+            triangles,
+        }
+    }
+
+    #[test]
+    fn a_torus_remeshes_closed_with_its_genus_and_near_the_input() {
+        let input = torus(48, 24);
+        let r = remesh(&input, &options()).expect("remesh");
+        assert_eq!(r.report.domain, "charts");
+        let psnr = r.report.psnr.expect("measured");
+        assert!(psnr > 70.0, "remesh at {psnr:.1} dB");
+        let topo = topology(&triangles(&r));
+        assert!(topo.manifold && topo.is_closed(), "{topo:?}");
+        assert_eq!(topo.genus, 1);
+        let samples = r.mesh.positions().len() as f64;
+        assert!(samples <= super::super::MAX_SAMPLES_PER_VERTEX * 48.0 * 24.0);
+        assert!(r.report.components.iter().all(|c| c.flipped == 0));
+    }
+
+    #[test]
+    fn an_open_patch_keeps_its_boundary() {
+        let m = 30;
+        let positions: Vec<DVec3> = (0..m * m)
+            .map(|k| {
+                let (x, y) = (
+                    (k % m) as f64 / (m - 1) as f64,
+                    (k / m) as f64 / (m - 1) as f64,
+                );
+                DVec3::new(x, y, 0.2 * (3.0 * x).sin() * (2.0 * y).cos())
+            })
+            .collect();
+        let at = |i: usize, j: usize| (j * m + i) as u32;
+        let mut faces = Vec::new();
+        for j in 0..m - 1 {
+            for i in 0..m - 1 {
+                faces.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                faces.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+            }
+        }
+        let input = PolyMesh::from_faces(positions, &faces);
+        let r = remesh(&input, &options()).expect("remesh");
+        let topo = topology(&triangles(&r));
+        assert!(topo.manifold, "{topo:?}");
+        assert_eq!((topo.boundary_loops, topo.genus), (1, 0));
+        assert!(r.report.psnr.expect("measured") > 70.0);
+    }
+
+    #[test]
+    fn a_remesh_below_the_floor_is_refused() {
+        let input = torus(32, 16);
+        let err = remesh(&input, &options().with_min_psnr(400.0)).expect_err("above any remesh");
+        assert!(
+            matches!(
+                err,
+                Error::Remesh {
+                    failure: RemeshFailure::TooFar { floor, .. },
+                    ..
+                } if floor == 400.0
+            ),
+            "{err}"
+        );
+    }
+}

@@ -1,0 +1,880 @@
+//! A coarse base triangle mesh of one component, with every input vertex
+//! mapped onto it: the base domain of MAPS (Lee, Sweldens, Schröder, Cowsar
+//! and Dobkin 1998), the one Progressive Geometry Compression coded on.
+//!
+//! Vertices are removed one at a time, cheapest first, by half-edge
+//! collapse: vertex `v` goes and its 1-ring is re-triangulated as a fan from
+//! a neighbour `u`. Before it goes, its 1-ring is flattened conformally
+//! (MAPS's `z^a`: angles around `v` scaled to a full turn, or to a half turn
+//! on a boundary, radii raised to the same power), and every input vertex
+//! located in the ring's triangles, `v` among them, is located again in the
+//! new fan in that flattening. A collapse whose fan folds in the flattening
+//! is never made, so the map stays one to one. Composed over all removals,
+//! each input vertex ends in one base triangle with barycentric coordinates:
+//! the bijective map of the input onto the base mesh.
+//!
+//! Base vertices are input vertices (half-edge collapse moves nothing), so
+//! the base mesh interpolates the input. Boundaries and sharp creases are
+//! *feature lines*: a vertex on one goes only along it, and a vertex where
+//! feature lines end or meet stays. So creases of CAD and low-poly models
+//! become base edges and, after the split into quads, grid lines. Input
+//! vertices on one side of a feature line stay on that side.
+//!
+//! The cost of a removal is the quadric error of the region merged into `u`
+//! (Garland and Heckbert), plus [`AREA_WEIGHT`] times the area of `v`'s ring
+//! (MAPS's area term, which keeps the base triangles of similar size on flat
+//! parts), divided by the worst shape of the fan's triangles.
+
+use std::cmp::Ordering;
+use std::collections::{BinaryHeap, HashSet};
+
+use qm_lift::glam::{DVec2, DVec3};
+
+use crate::TriMesh;
+
+/// Weight of the ring's area against the squared quadric error.
+const AREA_WEIGHT: f64 = 0.02;
+
+/// Dihedral angle, in degrees, above which an edge is a crease.
+const CREASE_DEGREES: f64 = 50.0;
+
+/// Crease chains (between corners, or closed) shorter than this many edges,
+/// or than [`MIN_CREASE_LENGTH`] base edges, are dropped: scanner noise or
+/// details below the base's size, not features it can follow.
+const MIN_CREASE_EDGES: usize = 3;
+
+/// The shortest crease chain kept, in expected base edge lengths.
+const MIN_CREASE_LENGTH: f64 = 0.5;
+
+/// Fan triangles thinner than this (twice the area over the sum of squared
+/// edges, 1 for the equilateral, scaled by `2 / sqrt(3)`) are not made.
+const MIN_QUALITY: f64 = 0.02;
+
+/// Where an input vertex lies on the base mesh.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Location {
+    /// It is a base vertex.
+    Vertex,
+    /// In base triangle `.0` (an index of [`Base::triangles`]) at
+    /// barycentric coordinates `.1` of its corners.
+    Face(u32, [f64; 3]),
+}
+
+/// A base triangle mesh of a component and the map onto it.
+#[derive(Clone, Debug)]
+pub struct Base {
+    /// Counter-clockwise base triangles on the component's vertex ids.
+    pub triangles: Vec<[u32; 3]>,
+    /// Per component vertex.
+    pub location: Vec<Location>,
+    /// Per component vertex: whether it lies on a feature line (a boundary
+    /// or a crease), where the map keeps it.
+    pub feature: Vec<bool>,
+}
+
+#[derive(Clone, Copy, Default)]
+struct Quadric {
+    a: [f64; 6],
+    b: [f64; 3],
+    c: f64,
+    area: f64,
+}
+
+impl Quadric {
+    fn plane(n: DVec3, p: DVec3, w: f64) -> Quadric {
+        let d = -n.dot(p);
+        Quadric {
+            a: [
+                w * n.x * n.x,
+                w * n.x * n.y,
+                w * n.x * n.z,
+                w * n.y * n.y,
+                w * n.y * n.z,
+                w * n.z * n.z,
+            ],
+            b: [w * n.x * d, w * n.y * d, w * n.z * d],
+            c: w * d * d,
+            area: 0.0,
+        }
+    }
+
+    fn add(&mut self, o: &Quadric) {
+        for i in 0..6 {
+            self.a[i] += o.a[i];
+        }
+        for i in 0..3 {
+            self.b[i] += o.b[i];
+        }
+        self.c += o.c;
+        self.area += o.area;
+    }
+
+    fn eval(&self, p: DVec3) -> f64 {
+        let [xx, xy, xz, yy, yz, zz] = self.a;
+        let quad = xx * p.x * p.x
+            + 2.0 * xy * p.x * p.y
+            + 2.0 * xz * p.x * p.z
+            + yy * p.y * p.y
+            + 2.0 * yz * p.y * p.z
+            + zz * p.z * p.z;
+        let lin = 2.0 * (self.b[0] * p.x + self.b[1] * p.y + self.b[2] * p.z);
+        (quad + lin + self.c).max(0.0)
+    }
+}
+
+fn edge_key(a: u32, b: u32) -> u64 {
+    (u64::from(a.min(b)) << 32) | u64::from(a.max(b))
+}
+
+/// A vertex's 1-ring: `faces[i]` is `(v, verts[i], verts[i + 1])` (indices
+/// taken cyclically when `closed`).
+struct Ring {
+    verts: Vec<u32>,
+    faces: Vec<u32>,
+    closed: bool,
+}
+
+/// A planned removal of `v` into `u`.
+struct Plan {
+    u: u32,
+    cost: f64,
+}
+
+#[derive(PartialEq)]
+struct Entry {
+    cost: f64,
+    v: u32,
+    stamp: u32,
+}
+
+impl Eq for Entry {}
+
+impl PartialOrd for Entry {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for Entry {
+    /// Cheapest first in a max-heap; ties by vertex, for determinism.
+    fn cmp(&self, other: &Self) -> Ordering {
+        other
+            .cost
+            .total_cmp(&self.cost)
+            .then_with(|| other.v.cmp(&self.v))
+    }
+}
+
+struct Simplifier<'a> {
+    positions: &'a [DVec3],
+    faces: Vec<[u32; 3]>,
+    alive: Vec<bool>,
+    points: Vec<Vec<u32>>,
+    vfaces: Vec<Vec<u32>>,
+    removed: Vec<bool>,
+    creases: HashSet<u64>,
+    crease_degree: Vec<u8>,
+    quadric: Vec<Quadric>,
+    location: Vec<Location>,
+    stamp: Vec<u32>,
+    alive_faces: usize,
+    alive_vertices: usize,
+    closed: bool,
+    clamped: usize,
+    feature: Vec<bool>,
+}
+
+/// Simplifies `mesh` (one cleaned component) towards `target` base
+/// triangles, fewer if no removal is left that keeps the map one to one
+/// and the topology.
+pub fn simplify(mesh: &TriMesh, target: usize) -> Base {
+    // The edge of an equilateral base triangle of the target's mean area.
+    let edge = (4.0 * mesh.area() / (3f64.sqrt() * target.max(1) as f64)).sqrt();
+    let mut s = Simplifier::new(mesh, MIN_CREASE_LENGTH * edge);
+    s.run(target.max(1));
+    s.finish()
+}
+
+impl<'a> Simplifier<'a> {
+    fn new(mesh: &'a TriMesh, min_crease: f64) -> Self {
+        let n = mesh.positions.len();
+        let mut vfaces = vec![Vec::new(); n];
+        for (f, t) in mesh.triangles.iter().enumerate() {
+            for &v in t {
+                vfaces[v as usize].push(f as u32);
+            }
+        }
+        let mut quadric = vec![Quadric::default(); n];
+        let normal = |t: &[u32; 3]| {
+            let [a, b, c] = mesh.corners(t);
+            (b - a).cross(c - a)
+        };
+        for t in &mesh.triangles {
+            let nn = normal(t);
+            let area = 0.5 * nn.length();
+            if area <= 0.0 {
+                continue;
+            }
+            let mut q = Quadric::plane(nn.normalize(), mesh.positions[t[0] as usize], area);
+            q.area = area / 3.0;
+            for &v in t {
+                quadric[v as usize].add(&q);
+            }
+        }
+        // Edges with their faces, for boundaries and creases.
+        let mut edge_faces: std::collections::HashMap<u64, Vec<u32>> =
+            std::collections::HashMap::with_capacity(3 * mesh.triangles.len() / 2);
+        for (f, t) in mesh.triangles.iter().enumerate() {
+            for i in 0..3 {
+                edge_faces
+                    .entry(edge_key(t[i], t[(i + 1) % 3]))
+                    .or_default()
+                    .push(f as u32);
+            }
+        }
+        let cos_crease = CREASE_DEGREES.to_radians().cos();
+        let mut creases = HashSet::new();
+        let mut boundary_edges = 0usize;
+        for (&key, fs) in &edge_faces {
+            let sharp = match fs.as_slice() {
+                [_] => {
+                    boundary_edges += 1;
+                    true
+                }
+                [f, g] => {
+                    let (a, b) = (
+                        normal(&mesh.triangles[*f as usize]),
+                        normal(&mesh.triangles[*g as usize]),
+                    );
+                    a.normalize_or_zero().dot(b.normalize_or_zero()) < cos_crease
+                }
+                _ => true,
+            };
+            if sharp {
+                creases.insert(key);
+            }
+        }
+        let closed = boundary_edges == 0;
+        let mut s = Simplifier {
+            positions: &mesh.positions,
+            faces: mesh.triangles.clone(),
+            alive: vec![true; mesh.triangles.len()],
+            points: vec![Vec::new(); mesh.triangles.len()],
+            vfaces,
+            removed: vec![false; n],
+            creases,
+            crease_degree: vec![0; n],
+            quadric,
+            location: vec![Location::Vertex; n],
+            stamp: vec![0; n],
+            alive_faces: mesh.triangles.len(),
+            alive_vertices: n,
+            closed,
+            clamped: 0,
+            feature: Vec::new(),
+        };
+        s.prune_creases(&edge_faces, min_crease);
+        s.feature = s.crease_degree.iter().map(|&d| d > 0).collect();
+        s
+    }
+
+    /// Drops short crease chains (keeping boundaries), then counts each
+    /// vertex's feature edges and adds the feature lines' quadrics.
+    fn prune_creases(
+        &mut self,
+        edge_faces: &std::collections::HashMap<u64, Vec<u32>>,
+        min_length: f64,
+    ) {
+        let n = self.positions.len();
+        let ends = |key: u64| ((key >> 32) as u32, key as u32);
+        let mut degree = vec![0u32; n];
+        for &key in &self.creases {
+            let (a, b) = ends(key);
+            degree[a as usize] += 1;
+            degree[b as usize] += 1;
+        }
+        let mut adjacency: std::collections::HashMap<u32, Vec<u32>> =
+            std::collections::HashMap::new();
+        for &key in &self.creases {
+            let (a, b) = ends(key);
+            adjacency.entry(a).or_default().push(b);
+            adjacency.entry(b).or_default().push(a);
+        }
+        // Walk chains between vertices of degree other than 2.
+        let mut seen: HashSet<u64> = HashSet::new();
+        let mut drop = Vec::new();
+        let mut keys: Vec<u64> = self.creases.iter().copied().collect();
+        keys.sort_unstable();
+        for &key in &keys {
+            if seen.contains(&key) {
+                continue;
+            }
+            let boundary = edge_faces[&key].len() == 1;
+            let mut chain = vec![key];
+            seen.insert(key);
+            let (a, b) = ends(key);
+            for start in [a, b] {
+                let (mut prev, mut at) = (if start == a { b } else { a }, start);
+                while degree[at as usize] == 2 {
+                    let next = adjacency[&at]
+                        .iter()
+                        .copied()
+                        .find(|&w| w != prev)
+                        .unwrap_or(prev);
+                    let k = edge_key(at, next);
+                    if !seen.insert(k) {
+                        break;
+                    }
+                    chain.push(k);
+                    prev = at;
+                    at = next;
+                }
+            }
+            let length: f64 = chain
+                .iter()
+                .map(|&k| {
+                    let (a, b) = ends(k);
+                    self.positions[a as usize].distance(self.positions[b as usize])
+                })
+                .sum();
+            if !boundary && (chain.len() < MIN_CREASE_EDGES || length < min_length) {
+                drop.extend(chain);
+            }
+        }
+        for key in drop {
+            self.creases.remove(&key);
+        }
+        for &key in &self.creases {
+            let (a, b) = ends(key);
+            for v in [a, b] {
+                self.crease_degree[v as usize] = self.crease_degree[v as usize].saturating_add(1);
+            }
+            // A plane through the edge, across its faces: keeps the line.
+            let (pa, pb) = (self.positions[a as usize], self.positions[b as usize]);
+            let e = pb - pa;
+            for &f in &edge_faces[&key] {
+                let [x, y, z] = self.faces[f as usize].map(|v| self.positions[v as usize]);
+                let fnormal = (y - x).cross(z - x).normalize_or_zero();
+                let across = e.cross(fnormal).normalize_or_zero();
+                if across != DVec3::ZERO {
+                    let q = Quadric::plane(across, pa, e.length_squared());
+                    self.quadric[a as usize].add(&q);
+                    self.quadric[b as usize].add(&q);
+                }
+            }
+        }
+    }
+
+    fn ring(&self, v: u32) -> Option<Ring> {
+        let fs = &self.vfaces[v as usize];
+        if fs.is_empty() {
+            return None;
+        }
+        // (x, y, face) per face: v, x, y counter-clockwise.
+        let spokes: Vec<(u32, u32, u32)> = fs
+            .iter()
+            .map(|&f| {
+                let t = self.faces[f as usize];
+                let c = t.iter().position(|&w| w == v).expect("face of its vertex");
+                (t[(c + 1) % 3], t[(c + 2) % 3], f)
+            })
+            .collect();
+        // A boundary fan starts at the x that is no face's y.
+        let start = spokes
+            .iter()
+            .position(|s| !spokes.iter().any(|o| o.1 == s.0))
+            .unwrap_or(0);
+        let closed = spokes.iter().all(|s| spokes.iter().any(|o| o.1 == s.0));
+        let mut verts = vec![spokes[start].0];
+        let mut faces = Vec::with_capacity(spokes.len());
+        let mut at = start;
+        for _ in 0..spokes.len() {
+            let (_, y, f) = spokes[at];
+            faces.push(f);
+            match spokes.iter().position(|s| s.0 == y) {
+                Some(next) if faces.len() < spokes.len() => {
+                    verts.push(y);
+                    at = next;
+                }
+                _ => {
+                    if !closed {
+                        verts.push(y);
+                    }
+                    break;
+                }
+            }
+        }
+        if faces.len() != spokes.len() {
+            return None;
+        }
+        let mut unique = verts.clone();
+        unique.sort_unstable();
+        unique.dedup();
+        if unique.len() != verts.len() {
+            return None;
+        }
+        Some(Ring {
+            verts,
+            faces,
+            closed,
+        })
+    }
+
+    /// MAPS's conformal flattening of `v`'s ring: `v` at the origin.
+    fn flatten(&self, v: u32, ring: &Ring) -> Option<Vec<DVec2>> {
+        let p = self.positions[v as usize];
+        let k = ring.verts.len();
+        let spokes: Vec<DVec3> = ring
+            .verts
+            .iter()
+            .map(|&w| self.positions[w as usize] - p)
+            .collect();
+        let lengths: Vec<f64> = spokes.iter().map(|s| s.length()).collect();
+        let longest = lengths.iter().copied().fold(0.0, f64::max);
+        if longest.is_nan() || longest <= 0.0 || lengths.iter().any(|&l| l.is_nan() || l <= 0.0) {
+            return None;
+        }
+        let angle = |i: usize, j: usize| spokes[i].angle_between(spokes[j]);
+        let angles: Vec<f64> = (0..ring.faces.len())
+            .map(|i| angle(i, (i + 1) % k))
+            .collect();
+        let total: f64 = angles.iter().sum();
+        if total.is_nan() || total <= 1e-9 || angles.iter().any(|&a| a.is_nan() || a <= 0.0) {
+            return None;
+        }
+        let turn = if ring.closed {
+            std::f64::consts::TAU
+        } else {
+            std::f64::consts::PI
+        };
+        let a = turn / total;
+        let mut phi = 0.0f64;
+        let mut out = Vec::with_capacity(k);
+        for i in 0..k {
+            let r = (lengths[i] / longest).powf(a);
+            out.push(DVec2::new(r * phi.cos(), r * phi.sin()));
+            if i < angles.len() {
+                phi += a * angles[i];
+            }
+        }
+        Some(out)
+    }
+
+    fn neighbours(&self, v: u32) -> Vec<u32> {
+        let mut out: Vec<u32> = self.vfaces[v as usize]
+            .iter()
+            .flat_map(|&f| self.faces[f as usize])
+            .filter(|&w| w != v)
+            .collect();
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
+    /// The fan from ring position `ui`: per ring edge `i` not at `u`,
+    /// `(i, [u, w_i, w_i+1])`.
+    fn fan(ring: &Ring, ui: usize) -> Vec<(usize, [usize; 3])> {
+        let k = ring.verts.len();
+        (0..ring.faces.len())
+            .filter_map(|i| {
+                let j = (i + 1) % k;
+                (i != ui && j != ui).then_some((i, [ui, i, j]))
+            })
+            .collect()
+    }
+
+    /// The side of ring edge `i` for a crease collapse into ring position
+    /// `ui` with the other crease neighbour at `bi`: 0 from `u` to `b`, 1
+    /// from `b` to `u`; all 0 without a crease.
+    fn side(ring: &Ring, ui: usize, bi: Option<usize>, i: usize) -> u8 {
+        let Some(bi) = bi else { return 0 };
+        let k = ring.verts.len();
+        let from_u = (i + k - ui) % k;
+        let to_b = (bi + k - ui) % k;
+        u8::from(from_u >= to_b)
+    }
+
+    /// The best removal of `v`, if any is allowed.
+    fn plan(&self, v: u32) -> Option<Plan> {
+        if self.removed[v as usize] {
+            return None;
+        }
+        let degree = self.crease_degree[v as usize];
+        if degree != 0 && degree != 2 {
+            return None;
+        }
+        let min_faces = if self.closed { 4 } else { 1 };
+        let ring = self.ring(v)?;
+        if self.alive_faces <= min_faces + 2 || self.alive_vertices <= 4 {
+            return None;
+        }
+        // A boundary vertex lies on feature lines (its two boundary edges).
+        if !ring.closed && degree != 2 {
+            return None;
+        }
+        if !ring.closed && ring.faces.len() < 2 {
+            return None;
+        }
+        let flat = self.flatten(v, &ring)?;
+        let crease_ends: Vec<usize> = (0..ring.verts.len())
+            .filter(|&i| self.creases.contains(&edge_key(v, ring.verts[i])))
+            .collect();
+        let candidates: Vec<usize> = if degree == 2 {
+            crease_ends.clone()
+        } else {
+            (0..ring.verts.len()).collect()
+        };
+        let v_neighbours = self.neighbours(v);
+        let ring_area: f64 = ring
+            .faces
+            .iter()
+            .map(|&f| self.area3(self.faces[f as usize]))
+            .sum();
+        let ring_normal: DVec3 = ring
+            .faces
+            .iter()
+            .map(|&f| self.normal3(self.faces[f as usize]))
+            .sum::<DVec3>()
+            .normalize_or_zero();
+        let mut best: Option<Plan> = None;
+        for ui in candidates {
+            let u = ring.verts[ui];
+            let bi = (degree == 2)
+                .then(|| crease_ends.iter().copied().find(|&i| i != ui))
+                .flatten();
+            if let Some(bi) = bi
+                && self.creases.contains(&edge_key(u, ring.verts[bi]))
+            {
+                continue;
+            }
+            if !ring.closed && ui != 0 && ui != ring.verts.len() - 1 {
+                continue;
+            }
+            // Link condition: the common neighbours of u and v are the
+            // vertices opposite their edge.
+            let opposite = ring
+                .faces
+                .iter()
+                .map(|&f| self.faces[f as usize])
+                .filter(|t| t.contains(&u))
+                .count();
+            let u_neighbours = self.neighbours(u);
+            let common = v_neighbours
+                .iter()
+                .filter(|w| u_neighbours.binary_search(w).is_ok())
+                .count();
+            if common != opposite {
+                continue;
+            }
+            let fan = Self::fan(&ring, ui);
+            let mut quality = f64::INFINITY;
+            let mut ok = true;
+            for &(_, [a, b, c]) in &fan {
+                let (pa, pb, pc) = (flat[a], flat[b], flat[c]);
+                let area2 = (pb - pa).perp_dot(pc - pa);
+                let scale = (pb - pa).length_squared()
+                    + (pc - pb).length_squared()
+                    + (pa - pc).length_squared();
+                if area2.is_nan() || area2 <= 1e-12 * scale {
+                    ok = false;
+                    break;
+                }
+                let t = [ring.verts[a], ring.verts[b], ring.verts[c]];
+                let n = self.normal3(t);
+                if n.dot(ring_normal) <= 0.0 {
+                    ok = false;
+                    break;
+                }
+                quality = quality.min(self.quality3(t));
+            }
+            if !ok || quality < MIN_QUALITY {
+                continue;
+            }
+            let mut q = self.quadric[v as usize];
+            q.add(&self.quadric[u as usize]);
+            let err = q.eval(self.positions[u as usize]) / q.area.max(1e-300);
+            let cost = (err + AREA_WEIGHT * ring_area) / quality.min(1.0);
+            if best.as_ref().is_none_or(|b| cost < b.cost) {
+                best = Some(Plan { u, cost });
+            }
+        }
+        best
+    }
+
+    fn area3(&self, t: [u32; 3]) -> f64 {
+        0.5 * self.normal3_raw(t).length()
+    }
+
+    fn normal3_raw(&self, t: [u32; 3]) -> DVec3 {
+        let [a, b, c] = t.map(|v| self.positions[v as usize]);
+        (b - a).cross(c - a)
+    }
+
+    fn normal3(&self, t: [u32; 3]) -> DVec3 {
+        self.normal3_raw(t).normalize_or_zero()
+    }
+
+    /// `4 sqrt(3) area / (sum of squared edges)`: 1 for the equilateral.
+    fn quality3(&self, t: [u32; 3]) -> f64 {
+        let [a, b, c] = t.map(|v| self.positions[v as usize]);
+        let sum = (b - a).length_squared() + (c - b).length_squared() + (a - c).length_squared();
+        if sum <= 0.0 {
+            return 0.0;
+        }
+        2.0 * 3f64.sqrt() * (b - a).cross(c - a).length() / sum
+    }
+
+    fn run(&mut self, target: usize) {
+        let mut heap = BinaryHeap::new();
+        for v in 0..self.positions.len() as u32 {
+            if let Some(p) = self.plan(v) {
+                heap.push(Entry {
+                    cost: p.cost,
+                    v,
+                    stamp: 0,
+                });
+            }
+        }
+        while self.alive_faces > target {
+            let Some(entry) = heap.pop() else { break };
+            let v = entry.v;
+            if self.removed[v as usize] || entry.stamp != self.stamp[v as usize] {
+                continue;
+            }
+            let Some(plan) = self.plan(v) else { continue };
+            if plan.cost > entry.cost * (1.0 + 1e-9) + 1e-300 {
+                self.stamp[v as usize] += 1;
+                heap.push(Entry {
+                    cost: plan.cost,
+                    v,
+                    stamp: self.stamp[v as usize],
+                });
+                continue;
+            }
+            let touched = self.collapse(v, plan.u);
+            for w in touched {
+                self.stamp[w as usize] += 1;
+                if let Some(p) = self.plan(w) {
+                    heap.push(Entry {
+                        cost: p.cost,
+                        v: w,
+                        stamp: self.stamp[w as usize],
+                    });
+                }
+            }
+        }
+    }
+
+    /// Removes `v` into `u`; returns the vertices whose rings changed.
+    fn collapse(&mut self, v: u32, u: u32) -> Vec<u32> {
+        let ring = self.ring(v).expect("planned ring");
+        let flat = self.flatten(v, &ring).expect("planned flattening");
+        let k = ring.verts.len();
+        let ui = ring.verts.iter().position(|&w| w == u).expect("u in ring");
+        let bi = if self.crease_degree[v as usize] == 2 {
+            (0..k).find(|&i| i != ui && self.creases.contains(&edge_key(v, ring.verts[i])))
+        } else {
+            None
+        };
+        let corner2d = |w: u32| -> DVec2 {
+            if w == v {
+                DVec2::ZERO
+            } else {
+                flat[ring
+                    .verts
+                    .iter()
+                    .position(|&x| x == w)
+                    .expect("ring vertex")]
+            }
+        };
+        // The points of the old faces, in the flattening, with their side.
+        let mut moving: Vec<(u32, DVec2, u8)> = Vec::new();
+        for (i, &f) in ring.faces.iter().enumerate() {
+            let side = Self::side(&ring, ui, bi, i);
+            let t = self.faces[f as usize];
+            let c = t.map(corner2d);
+            for &p in &self.points[f as usize] {
+                let Location::Face(_, b) = self.location[p as usize] else {
+                    unreachable!("a located point")
+                };
+                moving.push((p, c[0] * b[0] + c[1] * b[1] + c[2] * b[2], side));
+            }
+            self.points[f as usize] = Vec::new();
+            self.alive[f as usize] = false;
+        }
+        moving.push((v, DVec2::ZERO, if bi.is_some() { 2 } else { 0 }));
+        // The new fan.
+        let fan = Self::fan(&ring, ui);
+        let mut made: Vec<(u32, [DVec2; 3], u8)> = Vec::with_capacity(fan.len());
+        for &(i, [a, b, c]) in &fan {
+            let t = [ring.verts[a], ring.verts[b], ring.verts[c]];
+            let f = self.faces.len() as u32;
+            self.faces.push(t);
+            self.alive.push(true);
+            self.points.push(Vec::new());
+            made.push((f, [flat[a], flat[b], flat[c]], Self::side(&ring, ui, bi, i)));
+        }
+        for &w in &ring.verts {
+            let fs = &mut self.vfaces[w as usize];
+            fs.retain(|&f| self.alive[f as usize]);
+        }
+        for &(f, _, _) in &made {
+            for w in self.faces[f as usize] {
+                self.vfaces[w as usize].push(f);
+            }
+        }
+        // Locate every moving point in a fan triangle of its side (`v`
+        // itself, on a crease, lies on the line: either side).
+        for (p, x, side) in moving {
+            // A side may have no fan triangle left (its one triangle was
+            // `v, u, b`): its points go onto the line `u b`.
+            let sided = side != 2 && made.iter().any(|m| m.2 == side);
+            let mut best: Option<(f64, u32, [f64; 3])> = None;
+            for &(f, [a, b, c], s) in &made {
+                if sided && s != side {
+                    continue;
+                }
+                let area = (b - a).perp_dot(c - a);
+                let l = [
+                    (b - x).perp_dot(c - x) / area,
+                    (c - x).perp_dot(a - x) / area,
+                    (a - x).perp_dot(b - x) / area,
+                ];
+                let worst = l[0].min(l[1]).min(l[2]);
+                if best.is_none_or(|b| worst > b.0) {
+                    best = Some((worst, f, l));
+                }
+            }
+            let (worst, f, mut l) = best.expect("a fan triangle");
+            if worst < -1e-9 {
+                self.clamped += 1;
+            }
+            if worst < 0.0 {
+                for x in &mut l {
+                    *x = x.max(0.0);
+                }
+                let s: f64 = l.iter().sum();
+                for x in &mut l {
+                    *x /= s;
+                }
+            }
+            self.location[p as usize] = Location::Face(f, l);
+            self.points[f as usize].push(p);
+        }
+        // Bookkeeping.
+        let qv = self.quadric[v as usize];
+        self.quadric[u as usize].add(&qv);
+        if let Some(bi) = bi {
+            let b = ring.verts[bi];
+            self.creases.remove(&edge_key(v, u));
+            self.creases.remove(&edge_key(v, b));
+            self.creases.insert(edge_key(u, b));
+        }
+        self.vfaces[v as usize].clear();
+        self.removed[v as usize] = true;
+        self.alive_vertices -= 1;
+        self.alive_faces = self.alive_faces + made.len() - ring.faces.len();
+        ring.verts
+    }
+
+    fn finish(self) -> Base {
+        let mut index = vec![u32::MAX; self.faces.len()];
+        let mut triangles = Vec::with_capacity(self.alive_faces);
+        for (f, t) in self.faces.iter().enumerate() {
+            if self.alive[f] {
+                index[f] = triangles.len() as u32;
+                triangles.push(*t);
+            }
+        }
+        let location = self
+            .location
+            .iter()
+            .map(|l| match *l {
+                Location::Face(f, b) => Location::Face(index[f as usize], b),
+                Location::Vertex => Location::Vertex,
+            })
+            .collect();
+        Base {
+            triangles,
+            location,
+            feature: self.feature,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A UV sphere of `rings x segments`.
+    pub(crate) fn sphere(rings: usize, segments: usize) -> TriMesh {
+        let mut positions = vec![DVec3::Z];
+        for r in 1..rings {
+            let theta = std::f64::consts::PI * r as f64 / rings as f64;
+            for s in 0..segments {
+                let phi = std::f64::consts::TAU * s as f64 / segments as f64;
+                positions.push(DVec3::new(
+                    theta.sin() * phi.cos(),
+                    theta.sin() * phi.sin(),
+                    theta.cos(),
+                ));
+            }
+        }
+        positions.push(-DVec3::Z);
+        let last = (positions.len() - 1) as u32;
+        let at = |r: usize, s: usize| (1 + (r - 1) * segments + s % segments) as u32;
+        let mut triangles = Vec::new();
+        for s in 0..segments {
+            triangles.push([0, at(1, s), at(1, s + 1)]);
+            triangles.push([last, at(rings - 1, s + 1), at(rings - 1, s)]);
+        }
+        for r in 1..rings - 1 {
+            for s in 0..segments {
+                triangles.push([at(r, s), at(r + 1, s), at(r + 1, s + 1)]);
+                triangles.push([at(r, s), at(r + 1, s + 1), at(r, s + 1)]);
+            }
+        }
+        TriMesh {
+            positions,
+            triangles,
+        }
+    }
+
+    fn euler(triangles: &[[u32; 3]]) -> i64 {
+        let mut verts: Vec<u32> = triangles.iter().flatten().copied().collect();
+        verts.sort_unstable();
+        verts.dedup();
+        let mut edges: Vec<u64> = triangles
+            .iter()
+            .flat_map(|t| (0..3).map(move |i| edge_key(t[i], t[(i + 1) % 3])))
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        verts.len() as i64 - edges.len() as i64 + triangles.len() as i64
+    }
+
+    #[test]
+    fn a_sphere_simplifies_to_its_target_and_every_vertex_is_mapped() {
+        let mesh = sphere(20, 32);
+        let base = simplify(&mesh, 40);
+        assert!(
+            base.triangles.len() <= 40,
+            "{} base triangles",
+            base.triangles.len()
+        );
+        assert_eq!(euler(&base.triangles), 2, "genus kept");
+        for (v, l) in base.location.iter().enumerate() {
+            match *l {
+                Location::Vertex => {
+                    assert!(base.triangles.iter().flatten().any(|&w| w == v as u32))
+                }
+                Location::Face(f, b) => {
+                    assert!((f as usize) < base.triangles.len());
+                    assert!(
+                        b.iter().all(|&x| x >= 0.0) && (b.iter().sum::<f64>() - 1.0).abs() < 1e-9
+                    );
+                }
+            }
+        }
+    }
+}
