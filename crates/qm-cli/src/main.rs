@@ -415,7 +415,7 @@ fn report_remesh(input: &Path, r: &qm::RemeshReport) {
         );
     }
     if let Some(why) = &r.fallback {
-        eprintln!("  base domain: charts, since one square per part failed: {why}");
+        eprintln!("  base domain: charts, since {why}");
     }
     if let Some(psnr) = r.psnr {
         eprintln!("  remesh measured at {psnr:.1} dB against the input");

@@ -352,6 +352,9 @@ fn flatten_star(a: DVec3, ring: &[DVec3], closed: bool, triangles: usize) -> Vec
 /// drawn triangle held it (else it was clamped onto the nearest).
 type Sampled = (DVec3, u32, bool);
 
+/// Drawn input triangles of a chart: turned over, and turned the right way.
+type Orientations = (Vec<u32>, Vec<u32>);
+
 /// A quad's samples and fine nodes (row-major), with the quad's index.
 type QuadSamples = (usize, Vec<Option<Sampled>>, Vec<Option<Sampled>>);
 
@@ -403,11 +406,11 @@ pub fn resample(
     let fine_side = 2 * n + 1;
     let fine_wanted = fit_rounds > 0;
     // Per chart: (quad, samples row-major, fine nodes row-major), and folds.
-    let per_chart: Vec<(Vec<QuadSamples>, usize)> = vertices
+    let per_chart: Vec<(Vec<QuadSamples>, Orientations)> = vertices
         .par_iter()
         .map(|&a| {
             let chart = build_chart(a, &star[&a], mesh, base, &in_face, &vertex_triangles);
-            let folded = chart.folded(base);
+            let folded = chart.orientations(mesh, base);
             let chart = chart.chart;
             let mut out = Vec::new();
             for &q in &quads_at[&a] {
@@ -458,9 +461,14 @@ pub fn resample(
     ];
     let mut uncovered = 0usize;
     let mut clamped = 0usize;
-    let mut folded = 0usize;
+    // A triangle is folded in the map if it is turned over in every chart
+    // that draws it: one turned over in one chart only is the chart's
+    // layout (its angles scaled to a turn), not the map.
+    let mut turned = std::collections::HashSet::new();
+    let mut right = std::collections::HashSet::new();
     for (chart, f) in per_chart {
-        folded += f;
+        turned.extend(f.0);
+        right.extend(f.1);
         for (q, grid, nodes) in chart {
             for (g, s) in grid.into_iter().enumerate() {
                 let id = layout.face_grid(q)[g] as usize;
@@ -483,6 +491,7 @@ pub fn resample(
             }
         }
     }
+    let folded = turned.iter().filter(|t| !right.contains(*t)).count();
     if uncovered > 0 {
         return Err(Error::remesh(RemeshFailure::Step(format!(
             "{uncovered} samples fell outside every chart"
@@ -512,33 +521,28 @@ struct Built {
     /// Every drawn triangle, folded or not, and its signed area.
     all: Vec<(u32, [DVec2; 3])>,
     areas: Vec<f64>,
-    a: u32,
 }
 
 impl Built {
-    /// Drawn triangles that fold and whose centroid lies in this vertex's
-    /// quads (where its barycentric coordinate is the largest).
-    fn folded(&self, base: &Base) -> usize {
-        let mut count = 0;
-        for ((_, q), &area) in self.all.iter().zip(&self.areas) {
+    /// The drawn triangles, split into those turned over in this chart and
+    /// those turned the right way.
+    ///
+    /// A triangle whose three corners lie on feature lines is neither: the
+    /// map lays feature lines straight along base edges, so an ear of a
+    /// ragged boundary (two boundary edges) has no area there.
+    fn orientations(&self, mesh: &TriMesh, base: &Base) -> Orientations {
+        let (mut folded, mut right) = (Vec::new(), Vec::new());
+        for ((t, _), &area) in self.all.iter().zip(&self.areas) {
+            let on_lines = mesh.triangles[*t as usize]
+                .iter()
+                .all(|&v| base.feature[v as usize]);
             if area > 0.0 {
-                continue;
-            }
-            let centre = (q[0] + q[1] + q[2]) / 3.0;
-            for (&t, place) in &self.chart.star {
-                let l = barycentric(place, centre);
-                let Some(c) = base.triangles[t as usize].iter().position(|&w| w == self.a) else {
-                    continue;
-                };
-                if l.iter().all(|&x| x >= -1e-12) {
-                    if l[c] >= l[(c + 1) % 3] && l[c] >= l[(c + 2) % 3] {
-                        count += 1;
-                    }
-                    break;
-                }
+                right.push(*t);
+            } else if !on_lines {
+                folded.push(*t);
             }
         }
-        count
+        (folded, right)
     }
 }
 
@@ -659,97 +663,161 @@ fn place_in(star: &Star, a: u32, v: u32, base: &Base) -> Option<DVec2> {
     }
 }
 
-/// Smooths the map of the input onto `base` (PGC smooths MAPS's map too):
-/// `rounds` Gauss-Seidel sweeps move each input vertex that is neither a
-/// base vertex nor on a feature line to the mean-value combination
-/// (Floater) of its neighbours, in the chart of the base vertex nearest it,
-/// when its triangles stay unfolded there. Simplification leaves the input
-/// bunched where it removed vertices late; smoothed, sampling density
-/// follows the surface.
-pub(super) fn smooth(mesh: &TriMesh, base: &mut Base, rounds: usize) {
+/// Untangles the map of the input onto `base` where it folds: an input
+/// vertex (not a base vertex, not on a feature line) with a triangle turned
+/// over in the chart of its nearest base vertex moves into the kernel of
+/// its ring there (cyclic projection onto its edges' half-planes, from its
+/// place and else from the mean of its neighbours), when that turns fewer
+/// of its triangles over. Sweeps repeat, over the vertices still folded and
+/// the neighbours of those moved, up to `rounds` times.
+///
+/// Nothing else moves: smoothing the whole map (mean-value or uniform
+/// weights, with or without stretch reweighting) sampled the development
+/// models and scans worse than the map the simplification leaves
+/// (docs/remesher-next.md).
+pub(super) fn untangle_map(mesh: &TriMesh, base: &mut Base, rounds: usize) {
     if rounds == 0 {
         return;
     }
     let stars = stars(mesh, base);
     let n = mesh.positions.len();
-    let mut weights: Vec<Vec<(u32, f64)>> = vec![Vec::new(); n];
     let mut around: Vec<Vec<u32>> = vec![Vec::new(); n];
     for (t, tri) in mesh.triangles.iter().enumerate() {
-        for c in 0..3 {
-            let (p, x, y) = (tri[c], tri[(c + 1) % 3], tri[(c + 2) % 3]);
-            around[p as usize].push(t as u32);
-            let at = mesh.positions[p as usize];
-            let (dx, dy) = (
-                mesh.positions[x as usize] - at,
-                mesh.positions[y as usize] - at,
-            );
-            let half = 0.5 * dx.angle_between(dy);
-            if !half.is_finite() {
-                continue;
-            }
-            let tan = half.tan();
-            for (w, d) in [(x, dx), (y, dy)] {
-                let l = d.length();
-                if l > 0.0 {
-                    weights[p as usize].push((w, tan / l));
-                }
-            }
+        for &v in tri {
+            around[v as usize].push(t as u32);
         }
     }
+    let mut todo: Vec<u32> = (0..n as u32).collect();
     for _ in 0..rounds {
-        for p in 0..n as u32 {
-            let Location::Face(f, b) = base.location[p as usize] else {
-                continue;
-            };
-            if base.feature[p as usize] || weights[p as usize].is_empty() {
-                continue;
-            }
-            let tri = base.triangles[f as usize];
-            let c = (0..3).max_by(|&i, &j| b[i].total_cmp(&b[j])).unwrap_or(0);
-            let a = tri[c];
-            let star = &stars[&a];
-            let mut sum = DVec2::ZERO;
-            let mut total = 0.0;
-            let mut ok = true;
-            for &(w, weight) in &weights[p as usize] {
-                match place_in(star, a, w, base) {
-                    Some(x) => {
-                        sum += x * weight;
-                        total += weight;
+        let mut next = Vec::new();
+        for &p in &todo {
+            if let Some(moved) = untangle_vertex(mesh, base, &stars, &around, p) {
+                if moved {
+                    for &t in &around[p as usize] {
+                        next.extend(mesh.triangles[t as usize]);
                     }
-                    None => {
-                        ok = false;
-                        break;
-                    }
+                } else {
+                    next.push(p);
                 }
             }
-            if !ok || total.is_nan() || total <= 0.0 {
-                continue;
-            }
-            let x = sum / total;
-            // Its triangles must stay unfolded in the chart.
-            let unfolded = around[p as usize].iter().all(|&t| {
-                let tri = mesh.triangles[t as usize];
-                let k = tri.iter().position(|&w| w == p).expect("own triangle");
-                let q = place_in(star, a, tri[(k + 1) % 3], base);
-                let r = place_in(star, a, tri[(k + 2) % 3], base);
-                match (q, r) {
-                    (Some(q), Some(r)) => (q - x).perp_dot(r - x) > 0.0,
-                    _ => false,
-                }
-            });
-            if !unfolded {
-                continue;
-            }
-            let found = star.places[..star.proper].iter().find_map(|(t, place)| {
-                let l = barycentric(place, x);
-                l.iter().all(|&v| v >= 0.0).then_some((*t, l))
-            });
-            if let Some((t, l)) = found {
-                base.location[p as usize] = Location::Face(t, l);
+        }
+        next.sort_unstable();
+        next.dedup();
+        if next.is_empty() {
+            break;
+        }
+        todo = next;
+    }
+}
+
+/// One untangling step of `p`: `None` if none of its triangles is turned
+/// over (or it may not move), else whether it moved.
+fn untangle_vertex(
+    mesh: &TriMesh,
+    base: &mut Base,
+    stars: &HashMap<u32, Star>,
+    around: &[Vec<u32>],
+    p: u32,
+) -> Option<bool> {
+    let Location::Face(f, b) = base.location[p as usize] else {
+        return None;
+    };
+    if base.feature[p as usize] {
+        return None;
+    }
+    let tri = base.triangles[f as usize];
+    let c = (0..3).max_by(|&i, &j| b[i].total_cmp(&b[j])).unwrap_or(0);
+    let a = tri[c];
+    let star = &stars[&a];
+    let place = |w: u32| place_in(star, a, w, base);
+    let folds = |x: DVec2| -> Option<usize> {
+        let mut count = 0;
+        for &t in &around[p as usize] {
+            let tri = mesh.triangles[t as usize];
+            let k = tri.iter().position(|&w| w == p)?;
+            let (q, r) = (place(tri[(k + 1) % 3])?, place(tri[(k + 2) % 3])?);
+            count += usize::from((q - x).perp_dot(r - x) <= 0.0);
+        }
+        Some(count)
+    };
+    let now = place(p)?;
+    let before = folds(now)?;
+    if before == 0 {
+        return None;
+    }
+    let mut mean = DVec2::ZERO;
+    let mut count = 0.0f64;
+    for &t in &around[p as usize] {
+        for w in mesh.triangles[t as usize] {
+            if w != p {
+                mean += place(w)?;
+                count += 1.0;
             }
         }
     }
+    let starts = [now, mean / count.max(1.0)];
+    let best = starts
+        .iter()
+        .filter_map(|&x0| untangle(mesh, &around[p as usize], p, x0, place))
+        .filter_map(|y| folds(y).map(|k| (k, y)))
+        .min_by_key(|&(k, _)| k);
+    let Some((after, x)) = best else {
+        return Some(false);
+    };
+    if after >= before {
+        return Some(false);
+    }
+    let found = star.places[..star.proper].iter().find_map(|(t, place)| {
+        let l = barycentric(place, x);
+        l.iter().all(|&v| v >= 0.0).then_some((*t, l))
+    });
+    let Some((t, l)) = found else {
+        return Some(false);
+    };
+    base.location[p as usize] = Location::Face(t, l);
+    Some(true)
+}
+
+/// A place for `p` inside the kernel of its ring in a chart (every one of
+/// its triangles turned the right way), from `x` by cyclic projection onto
+/// the half-planes of the ring's edges; `None` if it finds none.
+fn untangle(
+    mesh: &TriMesh,
+    around: &[u32],
+    p: u32,
+    mut x: DVec2,
+    place: impl Fn(u32) -> Option<DVec2>,
+) -> Option<DVec2> {
+    let mut edges = Vec::with_capacity(around.len());
+    let mut scale = 0.0f64;
+    for &t in around {
+        let tri = mesh.triangles[t as usize];
+        let k = tri.iter().position(|&w| w == p)?;
+        let (q, r) = (place(tri[(k + 1) % 3])?, place(tri[(k + 2) % 3])?);
+        scale = scale.max((r - q).length());
+        edges.push((q, r));
+    }
+    let margin = 1e-3 * scale;
+    for _ in 0..32 {
+        let mut inside = true;
+        for &(q, r) in &edges {
+            let e = r - q;
+            let len = e.length();
+            if len <= 0.0 {
+                return None;
+            }
+            let normal = DVec2::new(-e.y, e.x) / len;
+            let d = (x - q).dot(normal);
+            if d < margin {
+                inside = false;
+                x += normal * (2.0 * margin - d);
+            }
+        }
+        if inside {
+            return Some(x);
+        }
+    }
+    None
 }
 
 fn build_chart(
@@ -798,7 +866,18 @@ fn build_chart(
             ) else {
                 continue;
             };
-            let area = (q - p).perp_dot(r - p);
+            // Nearly collinear (an ear laid along a feature line) counts as
+            // no area: its barycentric coordinates would be noise.
+            let longest = (q - p)
+                .length_squared()
+                .max((r - q).length_squared())
+                .max((p - r).length_squared());
+            let raw = (q - p).perp_dot(r - p);
+            let area = if raw.abs() <= 1e-9 * longest {
+                0.0
+            } else {
+                raw
+            };
             if op && oq && or {
                 areas.push(area);
                 all.push((t, [p, q, r]));
@@ -821,7 +900,6 @@ fn build_chart(
         },
         all,
         areas,
-        a,
     }
 }
 

@@ -122,9 +122,9 @@ pub struct RemeshOptions {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 #[non_exhaustive]
 pub enum BaseDomain {
-    /// One square per component, and where that fails (a part that does
-    /// not map, glue or lay out on a square, or whose map folds), a
-    /// simplified base domain.
+    /// Both, measured: one square per component, unless that fails (a part
+    /// that does not map, glue or lay out on a square, or whose map folds)
+    /// or the simplified base domain measures clearly better.
     #[default]
     Auto,
     /// One square per component: a cut to a disk, mapped onto a square of
@@ -257,10 +257,11 @@ pub struct RemeshReport {
     /// The base domain made: `"square"` or `"charts"`.
     pub domain: &'static str,
     /// Why the one-square layout was not used, when
-    /// [`BaseDomain::Auto`] fell back to charts.
+    /// [`BaseDomain::Auto`] took charts.
     pub fallback: Option<String>,
-    /// Through charts: the remesh's PSNR against the input, measured
-    /// ([`RemeshOptions::min_psnr`]).
+    /// The remesh's PSNR against the input, as the remesher measured it
+    /// (through charts always, [`RemeshOptions::min_psnr`]; through one
+    /// square with [`BaseDomain::Auto`]).
     pub psnr: Option<f64>,
 }
 
@@ -276,14 +277,34 @@ pub struct NormalReport {
 
 /// Remeshes `mesh` into a semi-regular quad mesh.
 ///
-/// With [`BaseDomain::Auto`], a mesh the one-square layout cannot take is
-/// remeshed through a simplified base domain, and the report says why
+/// With [`BaseDomain::Auto`] both base domains are tried and measured: the
+/// simplified one is taken where one square per part fails or measures at
+/// least [`CLEARLY_BETTER_DB`] worse, and the report says why
 /// ([`RemeshReport::fallback`]).
 pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     match options.domain {
         BaseDomain::Square => remesh_square(mesh, options),
         BaseDomain::Charts => remesh_charts(mesh, options),
         BaseDomain::Auto => match remesh_square(mesh, options) {
+            Ok(mut square) => {
+                let psnr = measure(mesh, &square.mesh)?;
+                square.report.psnr = Some(psnr);
+                // The simplified base domain where it measures clearly
+                // better (a shape of many handles, a bunny's ears).
+                match remesh_charts(mesh, options) {
+                    Ok(mut charts)
+                        if charts
+                            .report
+                            .psnr
+                            .is_some_and(|p| p > psnr + CLEARLY_BETTER_DB) =>
+                    {
+                        charts.report.fallback =
+                            Some(format!("one square per part measured {psnr:.1} dB"));
+                        Ok(charts)
+                    }
+                    _ => Ok(square),
+                }
+            }
             Err(
                 e @ Error::Remesh {
                     failure:
@@ -295,13 +316,18 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
                 },
             ) => {
                 let mut remeshed = remesh_charts(mesh, options)?;
-                remeshed.report.fallback = Some(e.to_string());
+                remeshed.report.fallback = Some(format!("one square per part failed: {e}"));
                 Ok(remeshed)
             }
-            other => other,
+            Err(e) => Err(e),
         },
     }
 }
+
+/// How much better, in dB, the simplified base domain must measure for
+/// [`BaseDomain::Auto`] to take it over one square per part (its base
+/// section is larger).
+const CLEARLY_BETTER_DB: f64 = 1.0;
 
 /// The default floor of a remesh through a simplified base domain
 /// ([`RemeshOptions::min_psnr`]), in dB: a remesh below it is visibly not
@@ -312,13 +338,22 @@ pub const DEFAULT_MIN_PSNR: f64 = 50.0;
 /// input ([`RemeshReport::psnr`]).
 const CHECK_SAMPLES: usize = 50_000;
 
-/// The base domain's fewest triangles, over all components, at the level
-/// chosen: the deepest level whose share of the samples leaves at least this
-/// many base triangles is taken.
-const MIN_BASE_TRIANGLES: f64 = 48.0;
+/// The most base triangles the level is chosen for: the base section is
+/// about 16 bytes a base triangle (three quads of about 5.2 bytes), so 500
+/// keeps it near 8 KB. The level taken is the shallowest whose share of the
+/// samples needs no more base triangles than this and than
+/// [`BASE_SHARE`] of the samples allow. A coarse base maps with more
+/// distortion: the bunny remeshed at 61.9 dB on 85 base triangles, 95.9 dB
+/// on 339 (docs/remesher-next.md).
+const MAX_BASE_TRIANGLES: f64 = 500.0;
 
-/// Sweeps of smoothing of the map onto the base domain (`charts::smooth`).
-const SMOOTHING_ROUNDS: usize = 10;
+/// Base triangles per sample at most: about 2% of a stream of about a byte
+/// a sample, at 16 bytes a base triangle.
+const BASE_SHARE: f64 = 0.02 / 16.0;
+
+/// Most untangling sweeps of the map onto the base domain
+/// (`charts::untangle_map`).
+const UNTANGLE_ROUNDS: usize = 50;
 
 /// Remeshes through a simplified base domain (modules `simplify`, `charts`).
 fn remesh_charts(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
@@ -341,11 +376,11 @@ fn remesh_charts(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
         .collect();
     // Base triangles for the whole mesh at a level.
     let triangles_at = |level: u32| target / (3.0 * (1u64 << (2 * level)) as f64);
+    let most = MAX_BASE_TRIANGLES.min(BASE_SHARE * target).max(4.0);
     let mut level = options.level.unwrap_or_else(|| {
         (1..=qm_lift::MAX_LEVEL)
-            .rev()
-            .find(|&l| triangles_at(l) >= MIN_BASE_TRIANGLES)
-            .unwrap_or(1)
+            .find(|&l| triangles_at(l) <= most)
+            .unwrap_or(qm_lift::MAX_LEVEL)
     });
     let goal = |c: usize, level: u32| (shares[c] * triangles_at(level)).round() as usize;
     let simplify_parts = |level: u32, parts: &[usize]| -> Vec<(usize, simplify::Base)> {
@@ -397,7 +432,7 @@ fn remesh_charts(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     bases
         .par_iter_mut()
         .zip(&cleaned.components)
-        .for_each(|(base, component)| charts::smooth(component, base, SMOOTHING_ROUNDS));
+        .for_each(|(base, component)| charts::untangle_map(component, base, UNTANGLE_ROUNDS));
     let mut patches = Vec::with_capacity(bases.len());
     for (c, (base, component)) in bases.iter().zip(&cleaned.components).enumerate() {
         let (patch, folded) = charts::resample(component, base, level, options.fit_rounds)

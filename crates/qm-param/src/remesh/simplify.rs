@@ -451,7 +451,7 @@ impl<'a> Simplifier<'a> {
         let mut phi = 0.0f64;
         let mut out = Vec::with_capacity(k);
         for i in 0..k {
-            let r = (lengths[i] / longest).powf(a);
+            let r = (lengths[i] / longest).powf(if ring.closed { a } else { 1.0 });
             out.push(DVec2::new(r * phi.cos(), r * phi.sin()));
             if i < angles.len() {
                 phi += a * angles[i];
