@@ -726,56 +726,63 @@ fn untangle_vertex(
         return None;
     }
     let tri = base.triangles[f as usize];
-    let c = (0..3).max_by(|&i, &j| b[i].total_cmp(&b[j])).unwrap_or(0);
-    let a = tri[c];
-    let star = &stars[&a];
-    let place = |w: u32| place_in(star, a, w, base);
-    let folds = |x: DVec2| -> Option<usize> {
-        let mut count = 0;
-        for &t in &around[p as usize] {
-            let tri = mesh.triangles[t as usize];
-            let k = tri.iter().position(|&w| w == p)?;
-            let (q, r) = (place(tri[(k + 1) % 3])?, place(tri[(k + 2) % 3])?);
-            count += usize::from((q - x).perp_dot(r - x) <= 0.0);
+    // The charts of its base triangle's corners, nearest first: the first
+    // that holds its ring decides whether it is folded.
+    let mut corners = [0usize, 1, 2];
+    corners.sort_by(|&i, &j| b[j].total_cmp(&b[i]));
+    let mut tried = None;
+    for c in corners {
+        let a = tri[c];
+        let star = &stars[&a];
+        let place = |w: u32| place_in(star, a, w, base);
+        let folds = |x: DVec2| -> Option<usize> {
+            let mut count = 0;
+            for &t in &around[p as usize] {
+                let tri = mesh.triangles[t as usize];
+                let k = tri.iter().position(|&w| w == p)?;
+                let (q, r) = (place(tri[(k + 1) % 3])?, place(tri[(k + 2) % 3])?);
+                count += usize::from((q - x).perp_dot(r - x) <= 0.0);
+            }
+            Some(count)
+        };
+        let Some(now) = place(p) else { continue };
+        let Some(before) = folds(now) else { continue };
+        if before == 0 {
+            return tried;
         }
-        Some(count)
-    };
-    let now = place(p)?;
-    let before = folds(now)?;
-    if before == 0 {
-        return None;
-    }
-    let mut mean = DVec2::ZERO;
-    let mut count = 0.0f64;
-    for &t in &around[p as usize] {
-        for w in mesh.triangles[t as usize] {
-            if w != p {
-                mean += place(w)?;
-                count += 1.0;
+        tried = Some(false);
+        let mut mean = DVec2::ZERO;
+        let mut count = 0.0f64;
+        for &t in &around[p as usize] {
+            for w in mesh.triangles[t as usize] {
+                if w != p
+                    && let Some(x) = place(w)
+                {
+                    mean += x;
+                    count += 1.0;
+                }
             }
         }
+        let starts = [now, mean / count.max(1.0)];
+        let best = starts
+            .iter()
+            .filter_map(|&x0| untangle(mesh, &around[p as usize], p, x0, place))
+            .filter_map(|y| folds(y).map(|k| (k, y)))
+            .min_by_key(|&(k, _)| k);
+        let Some((after, x)) = best else { continue };
+        if after >= before {
+            continue;
+        }
+        let found = star.places[..star.proper].iter().find_map(|(t, place)| {
+            let l = barycentric(place, x);
+            l.iter().all(|&v| v >= 0.0).then_some((*t, l))
+        });
+        if let Some((t, l)) = found {
+            base.location[p as usize] = Location::Face(t, l);
+            return Some(true);
+        }
     }
-    let starts = [now, mean / count.max(1.0)];
-    let best = starts
-        .iter()
-        .filter_map(|&x0| untangle(mesh, &around[p as usize], p, x0, place))
-        .filter_map(|y| folds(y).map(|k| (k, y)))
-        .min_by_key(|&(k, _)| k);
-    let Some((after, x)) = best else {
-        return Some(false);
-    };
-    if after >= before {
-        return Some(false);
-    }
-    let found = star.places[..star.proper].iter().find_map(|(t, place)| {
-        let l = barycentric(place, x);
-        l.iter().all(|&v| v >= 0.0).then_some((*t, l))
-    });
-    let Some((t, l)) = found else {
-        return Some(false);
-    };
-    base.location[p as usize] = Location::Face(t, l);
-    Some(true)
+    tried
 }
 
 /// A place for `p` inside the kernel of its ring in a chart (every one of
@@ -797,24 +804,29 @@ fn untangle(
         scale = scale.max((r - q).length());
         edges.push((q, r));
     }
-    let margin = 1e-3 * scale;
-    for _ in 0..32 {
-        let mut inside = true;
-        for &(q, r) in &edges {
-            let e = r - q;
-            let len = e.length();
-            if len <= 0.0 {
-                return None;
+    // From a wide margin to a thin one: a ring pinched against a feature
+    // line has a thin kernel.
+    let start = x;
+    for margin in [1e-3 * scale, 1e-5 * scale, 1e-8 * scale] {
+        x = start;
+        for _ in 0..64 {
+            let mut inside = true;
+            for &(q, r) in &edges {
+                let e = r - q;
+                let len = e.length();
+                if len <= 0.0 {
+                    return None;
+                }
+                let normal = DVec2::new(-e.y, e.x) / len;
+                let d = (x - q).dot(normal);
+                if d < margin {
+                    inside = false;
+                    x += normal * (2.0 * margin - d);
+                }
             }
-            let normal = DVec2::new(-e.y, e.x) / len;
-            let d = (x - q).dot(normal);
-            if d < margin {
-                inside = false;
-                x += normal * (2.0 * margin - d);
+            if inside {
+                return Some(x);
             }
-        }
-        if inside {
-            return Some(x);
         }
     }
     None

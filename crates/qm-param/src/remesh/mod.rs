@@ -315,7 +315,16 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
                     ..
                 },
             ) => {
-                let mut remeshed = remesh_charts(mesh, options)?;
+                // Where neither works: the charts' folds or distance if
+                // that is why (the flags that override them apply there),
+                // else the square's failure.
+                let mut remeshed = remesh_charts(mesh, options).map_err(|c| match c {
+                    Error::Remesh {
+                        failure: RemeshFailure::Folds { .. } | RemeshFailure::TooFar { .. },
+                        ..
+                    } => c,
+                    _ => e.clone(),
+                })?;
                 remeshed.report.fallback = Some(format!("one square per part failed: {e}"));
                 Ok(remeshed)
             }
@@ -346,6 +355,10 @@ const CHECK_SAMPLES: usize = 50_000;
 /// distortion: the bunny remeshed at 61.9 dB on 85 base triangles, 95.9 dB
 /// on 339 (docs/remesher-next.md).
 const MAX_BASE_TRIANGLES: f64 = 500.0;
+
+/// How far over [`MAX_BASE_TRIANGLES`] and [`BASE_SHARE`] a level's base may
+/// be rather than a level deeper (four times fewer base triangles).
+const BASE_SLACK: f64 = 1.1;
 
 /// Base triangles per sample at most: about 2% of a stream of about a byte
 /// a sample, at 16 bytes a base triangle.
@@ -379,7 +392,7 @@ fn remesh_charts(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     let most = MAX_BASE_TRIANGLES.min(BASE_SHARE * target).max(4.0);
     let mut level = options.level.unwrap_or_else(|| {
         (1..=qm_lift::MAX_LEVEL)
-            .find(|&l| triangles_at(l) <= most)
+            .find(|&l| triangles_at(l) <= BASE_SLACK * most)
             .unwrap_or(qm_lift::MAX_LEVEL)
     });
     let goal = |c: usize, level: u32| (shares[c] * triangles_at(level)).round() as usize;
@@ -1030,6 +1043,9 @@ fn density(mesh: &TriMesh, topo: &cut::Topology, spacing: f64) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// These tests are of the one-square layout.
+    const SQUARE: RemeshOptions = RemeshOptions::DEFAULT.with_domain(BaseDomain::Square);
     use crate::distance::{DistanceOptions, distance};
 
     /// A closed latitude-longitude sphere of radius 1, `n` segments around.
@@ -1068,7 +1084,7 @@ mod tests {
     #[test]
     fn no_parameter_triangle_flips_and_the_budget_holds() {
         let input = sphere(16);
-        let r = remesh(&input, &RemeshOptions::DEFAULT).unwrap();
+        let r = remesh(&input, &SQUARE).unwrap();
         for c in &r.report.components {
             assert_eq!(c.flipped, 0, "{c:?}");
             assert_eq!(c.uncovered, 0, "{c:?}");
@@ -1104,8 +1120,8 @@ mod tests {
             )
             .collect();
         let both = PolyMesh::from_faces(positions, &faces);
-        let r1 = remesh(&alone, &RemeshOptions::DEFAULT).unwrap();
-        let r2 = remesh(&both, &RemeshOptions::DEFAULT).unwrap();
+        let r1 = remesh(&alone, &SQUARE).unwrap();
+        let r2 = remesh(&both, &SQUARE).unwrap();
         assert_eq!(r2.report.components.len(), 2);
         let (l1, l2) = (r1.mesh.layout().level(), r2.mesh.layout().level());
         assert_eq!(l2, l1, "level {l2} with the small part, {l1} without");
@@ -1144,8 +1160,8 @@ mod tests {
                 both.push_face(&f.map(|v| v + offset));
             }
         }
-        let r1 = remesh(&alone, &RemeshOptions::DEFAULT).unwrap();
-        let r2 = remesh(&both, &RemeshOptions::DEFAULT).unwrap();
+        let r1 = remesh(&alone, &SQUARE).unwrap();
+        let r2 = remesh(&both, &SQUARE).unwrap();
         assert_eq!(r2.report.components.len(), 6);
         assert!(r2.mesh.layout().level() + 1 >= r1.mesh.layout().level());
         for c in &r2.report.components[1..] {
@@ -1167,7 +1183,7 @@ mod tests {
             &input,
             &RemeshOptions {
                 max_samples: target as usize,
-                ..RemeshOptions::DEFAULT
+                ..SQUARE
             },
         )
         .unwrap();
@@ -1198,11 +1214,7 @@ mod tests {
                     .iter()
                     .map(|p| DVec3::new(p.x, p.z, p.y) + at)
                     .collect();
-                let r = remesh(
-                    &PolyMesh::from_faces(positions, &faces),
-                    &RemeshOptions::DEFAULT,
-                )
-                .unwrap();
+                let r = remesh(&PolyMesh::from_faces(positions, &faces), &SQUARE).unwrap();
                 let c = &r.report.components[0];
                 (c.base_quads, c.extra_cuts, r.mesh.layout().level())
             })
@@ -1215,7 +1227,7 @@ mod tests {
         let input = sphere(16);
         let options = DistanceOptions::DEFAULT.with_samples(50_000);
         let psnr = |rounds: usize| {
-            let r = remesh(&input, &RemeshOptions::DEFAULT.with_fit_rounds(rounds)).unwrap();
+            let r = remesh(&input, &SQUARE.with_fit_rounds(rounds)).unwrap();
             distance(&input, &quads(&r), &options).unwrap().psnr_db
         };
         let (interpolated, fitted) = (psnr(0), psnr(3));
@@ -1260,7 +1272,7 @@ mod tests {
         let surface = surface::Surface::new(&clean(&input).unwrap().components).unwrap();
         let psnr = |r: &Remeshed| distance(&input, &quads(r), &samples).unwrap().psnr_db;
         for rounds in [0, 3] {
-            let options = RemeshOptions::DEFAULT.with_fit_rounds(rounds);
+            let options = SQUARE.with_fit_rounds(rounds);
             let plain = remesh(&input, &options.with_normal(false)).unwrap();
             let placed = remesh(&input, &options.with_normal(true)).unwrap();
             let report = placed.report.normal.unwrap();

@@ -420,8 +420,12 @@ impl<'a> Simplifier<'a> {
         })
     }
 
-    /// MAPS's conformal flattening of `v`'s ring: `v` at the origin.
-    fn flatten(&self, v: u32, ring: &Ring) -> Option<Vec<DVec2>> {
+    /// MAPS's conformal flattening of `v`'s ring: `v` at the origin. On a
+    /// feature line (a boundary, or `line`: the ring positions of an
+    /// interior crease's two ends) each side of the line is opened to a half
+    /// turn, radii kept, so that the line comes out straight through `v`
+    /// and no point crosses it when `v` goes.
+    fn flatten(&self, v: u32, ring: &Ring, line: Option<(usize, usize)>) -> Option<Vec<DVec2>> {
         let p = self.positions[v as usize];
         let k = ring.verts.len();
         let spokes: Vec<DVec3> = ring
@@ -442,6 +446,31 @@ impl<'a> Simplifier<'a> {
         if total.is_nan() || total <= 1e-9 || angles.iter().any(|&a| a.is_nan() || a <= 0.0) {
             return None;
         }
+        let mut out = vec![DVec2::ZERO; k];
+        if let (Some((ui, bi)), true) = (line, ring.closed) {
+            // Edge i runs from ring position i to i + 1; side 0 from u to b.
+            let side0: f64 = (0..k)
+                .filter(|&i| (i + k - ui) % k < (bi + k - ui) % k)
+                .map(|i| angles[i])
+                .sum();
+            let side1 = total - side0;
+            if side0 <= 1e-9 || side1 <= 1e-9 {
+                return None;
+            }
+            let mut phi = 0.0f64;
+            for step in 0..k {
+                let i = (ui + step) % k;
+                let r = (lengths[i] / longest).powf(std::f64::consts::TAU / total);
+                out[i] = DVec2::new(r * phi.cos(), r * phi.sin());
+                let scale = if step < (bi + k - ui) % k {
+                    std::f64::consts::PI / side0
+                } else {
+                    std::f64::consts::PI / side1
+                };
+                phi += scale * angles[i];
+            }
+            return Some(out);
+        }
         let turn = if ring.closed {
             std::f64::consts::TAU
         } else {
@@ -449,10 +478,9 @@ impl<'a> Simplifier<'a> {
         };
         let a = turn / total;
         let mut phi = 0.0f64;
-        let mut out = Vec::with_capacity(k);
-        for i in 0..k {
+        for (i, slot) in out.iter_mut().enumerate() {
             let r = (lengths[i] / longest).powf(if ring.closed { a } else { 1.0 });
-            out.push(DVec2::new(r * phi.cos(), r * phi.sin()));
+            *slot = DVec2::new(r * phi.cos(), r * phi.sin());
             if i < angles.len() {
                 phi += a * angles[i];
             }
@@ -515,7 +543,7 @@ impl<'a> Simplifier<'a> {
         if !ring.closed && ring.faces.len() < 2 {
             return None;
         }
-        let flat = self.flatten(v, &ring)?;
+        let plain = self.flatten(v, &ring, None)?;
         let crease_ends: Vec<usize> = (0..ring.verts.len())
             .filter(|&i| self.creases.contains(&edge_key(v, ring.verts[i])))
             .collect();
@@ -547,6 +575,18 @@ impl<'a> Simplifier<'a> {
             {
                 continue;
             }
+            // Each side of an interior crease keeps a triangle: a side of
+            // one (`v, u, b`) would be squashed onto the line `u b`, and
+            // its points with it.
+            if let Some(bi) = bi
+                && ring.closed
+            {
+                let k = ring.verts.len();
+                let arc = (bi + k - ui) % k;
+                if arc < 2 || k - arc < 2 {
+                    continue;
+                }
+            }
             if !ring.closed && ui != 0 && ui != ring.verts.len() - 1 {
                 continue;
             }
@@ -566,6 +606,17 @@ impl<'a> Simplifier<'a> {
             if common != opposite {
                 continue;
             }
+            let lined;
+            let flat = match bi {
+                Some(bi) if ring.closed => {
+                    let Some(f) = self.flatten(v, &ring, Some((ui, bi))) else {
+                        continue;
+                    };
+                    lined = f;
+                    &lined
+                }
+                _ => &plain,
+            };
             let fan = Self::fan(&ring, ui);
             let mut quality = f64::INFINITY;
             let mut ok = true;
@@ -668,7 +719,6 @@ impl<'a> Simplifier<'a> {
     /// Removes `v` into `u`; returns the vertices whose rings changed.
     fn collapse(&mut self, v: u32, u: u32) -> Vec<u32> {
         let ring = self.ring(v).expect("planned ring");
-        let flat = self.flatten(v, &ring).expect("planned flattening");
         let k = ring.verts.len();
         let ui = ring.verts.iter().position(|&w| w == u).expect("u in ring");
         let bi = if self.crease_degree[v as usize] == 2 {
@@ -676,6 +726,8 @@ impl<'a> Simplifier<'a> {
         } else {
             None
         };
+        let line = bi.filter(|_| ring.closed).map(|bi| (ui, bi));
+        let flat = self.flatten(v, &ring, line).expect("planned flattening");
         let corner2d = |w: u32| -> DVec2 {
             if w == v {
                 DVec2::ZERO
