@@ -42,13 +42,15 @@ struct RemeshArgs {
     /// starts.
     #[arg(long, value_name = "SIZE", value_parser = memory_size)]
     max_memory: Option<u64>,
-    /// Remesh even where a part's map onto its square folds (the remesh
-    /// then overlaps itself there); by default that is an error.
+    /// Remesh even where a part's map onto its base domain folds (the
+    /// remesh then overlaps itself or skips a little of the input there);
+    /// by default that is an error.
     #[arg(long)]
     accept_folds: bool,
-    /// How the base domain is made: one square per part, falling back to
-    /// a simplified base domain where that fails (auto), or always one of
-    /// them (see docs/remesher-next.md).
+    /// How the base domain is made: one square per part, or a simplified
+    /// base domain of many charts; auto makes and measures both and takes
+    /// the charts where one square fails or measures 2 dB worse (see
+    /// docs/remesher-next.md).
     #[arg(long, value_enum, default_value_t = Domain::Auto)]
     base_domain: Domain,
     /// Refuse a remesh through a simplified base domain that measures

@@ -161,8 +161,8 @@ pub enum RemeshFailure {
         /// Why the last one did not glue.
         problem: String,
     },
-    /// The part's map onto its square folds: the remesh would overlap
-    /// itself there.
+    /// The part's map onto its base domain (its square, or its charts)
+    /// folds: the remesh would overlap itself there.
     #[error(
         "folds: {folded} of its {triangles} triangles are folded in its map onto its base \
          domain, so the remesh would overlap itself there"

@@ -454,7 +454,11 @@ pub(super) fn fit_grids(
                 }
                 sums
             })
-            .reduce_with(|mut a, b| {
+            .collect::<Vec<_>>()
+            // Summed in chunk order, so that the result does not depend on
+            // the threads' timing.
+            .into_iter()
+            .reduce(|mut a, b| {
                 for (x, y) in a.iter_mut().zip(b) {
                     x.0 += y.0;
                     x.1 += y.1;

@@ -344,7 +344,11 @@ impl<'a> Simplifier<'a> {
         for key in drop {
             self.creases.remove(&key);
         }
-        for &key in &self.creases {
+        // In a fixed order: the quadrics' sums, and so the base, must not
+        // depend on the set's hashing.
+        let mut kept: Vec<u64> = self.creases.iter().copied().collect();
+        kept.sort_unstable();
+        for key in kept {
             let (a, b) = ends(key);
             for v in [a, b] {
                 self.crease_degree[v as usize] = self.crease_degree[v as usize].saturating_add(1);
