@@ -308,6 +308,54 @@ fn outputs_get_the_usual_file_mode() {
 /// starts, saying what it needs and what the limit is, and writes nothing:
 /// a remesh at a level too fine for the limit, and a decode of a file that
 /// asks for more than the limit.
+/// A small open patch (from the remesher fuzz target) whose map onto one
+/// square folds: `auto` says so and remeshes it through charts; with one
+/// square alone it is refused, and with `--accept-folds` its samples land
+/// outside the part, which is refused too.
+#[test]
+fn a_part_that_folds_on_its_square_goes_through_charts() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/folded-map.obj");
+    std::fs::copy(data, dir.path().join("patch.obj")).unwrap();
+    let out = qm(&["compress", "patch.obj"], dir.path());
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let err = stderr(&out);
+    assert!(
+        err.contains("base domain: charts, since one square per part failed"),
+        "{err}"
+    );
+    assert!(err.contains("remesh measured at"), "{err}");
+    assert!(dir.path().join("patch.qm").exists());
+    let out = qm(
+        &[
+            "compress",
+            "patch.obj",
+            "-o",
+            "square.qm",
+            "--base-domain",
+            "square",
+            "--quiet",
+        ],
+        dir.path(),
+    );
+    assert_fails_cleanly(&out, "patch.obj", "(--accept-folds writes it anyway)");
+    assert!(!dir.path().join("square.qm").exists());
+    let out = qm(
+        &[
+            "compress",
+            "patch.obj",
+            "-o",
+            "square.qm",
+            "--base-domain",
+            "square",
+            "--accept-folds",
+            "--quiet",
+        ],
+        dir.path(),
+    );
+    assert_fails_cleanly(&out, "patch.obj", "does not map onto its square");
+}
+
 #[test]
 fn memory_limits_refuse_work_before_it_starts() {
     let dir = tempfile::tempdir().unwrap();

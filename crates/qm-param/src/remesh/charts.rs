@@ -413,14 +413,33 @@ pub fn resample(
             let folded = chart.orientations(mesh, base);
             let chart = chart.chart;
             let mut out = Vec::new();
+            // Where this chart draws nothing (a star whose input triangles
+            // all reach out of it), the charts of the triangle's other
+            // corners, made when first needed.
+            let mut others: HashMap<u32, Chart> = HashMap::new();
             for &q in &quads_at[&a] {
                 let (t, c) = quads.owner[q];
                 let corners = quad_corners(c as usize);
                 let place = chart.star[&t];
-                let sample = |s: f64, u: f64| -> Option<Sampled> {
+                let mut sample = |s: f64, u: f64| -> Option<Sampled> {
                     let b = bilinear(&corners, s, u);
                     let x = place[0] * b[0] + place[1] * b[1] + place[2] * b[2];
-                    let hit = chart.locate(x)?;
+                    let mut hit = chart.locate(x);
+                    if hit.is_none() {
+                        for o in base.triangles[t as usize] {
+                            if o == a || hit.is_some() {
+                                continue;
+                            }
+                            let other = others.entry(o).or_insert_with(|| {
+                                build_chart(o, &star[&o], mesh, base, &in_face, &vertex_triangles)
+                                    .chart
+                            });
+                            if let Some(p) = other.star.get(&t) {
+                                hit = other.locate(p[0] * b[0] + p[1] * b[1] + p[2] * b[2]);
+                            }
+                        }
+                    }
+                    let hit = hit?;
                     let tri = mesh.triangles[hit.triangle as usize];
                     let p = mesh.positions[tri[0] as usize] * hit.bary[0]
                         + mesh.positions[tri[1] as usize] * hit.bary[1]
@@ -735,19 +754,27 @@ fn untangle_vertex(
         let a = tri[c];
         let star = &stars[&a];
         let place = |w: u32| place_in(star, a, w, base);
-        let folds = |x: DVec2| -> Option<usize> {
+        // Turned-over triangles, and their total area turned over: a move
+        // that turns none back but less area over is progress too, the way
+        // a knot of several vertices comes undone over the sweeps.
+        let folds = |x: DVec2| -> Option<(usize, f64)> {
             let mut count = 0;
+            let mut over = 0.0;
             for &t in &around[p as usize] {
                 let tri = mesh.triangles[t as usize];
                 let k = tri.iter().position(|&w| w == p)?;
                 let (q, r) = (place(tri[(k + 1) % 3])?, place(tri[(k + 2) % 3])?);
-                count += usize::from((q - x).perp_dot(r - x) <= 0.0);
+                let area = (q - x).perp_dot(r - x);
+                if area <= 0.0 {
+                    count += 1;
+                    over -= area;
+                }
             }
-            Some(count)
+            Some((count, over))
         };
         let Some(now) = place(p) else { continue };
         let Some(before) = folds(now) else { continue };
-        if before == 0 {
+        if before.0 == 0 {
             return tried;
         }
         tried = Some(false);
@@ -764,13 +791,34 @@ fn untangle_vertex(
             }
         }
         let starts = [now, mean / count.max(1.0)];
+        // And steps up the gradient of the turned-over area.
+        let mut uphill = DVec2::ZERO;
+        let mut reach = 0.0f64;
+        for &t in &around[p as usize] {
+            let tri = mesh.triangles[t as usize];
+            let k = tri.iter().position(|&w| w == p)?;
+            let (Some(q), Some(r)) = (place(tri[(k + 1) % 3]), place(tri[(k + 2) % 3])) else {
+                continue;
+            };
+            reach = reach.max((r - q).length());
+            if (q - now).perp_dot(r - now) <= 0.0 {
+                let e = r - q;
+                uphill += DVec2::new(-e.y, e.x);
+            }
+        }
+        let steps = (uphill.length() > 0.0).then(|| uphill.normalize() * reach);
         let best = starts
             .iter()
             .filter_map(|&x0| untangle(mesh, &around[p as usize], p, x0, place))
+            .chain(
+                steps
+                    .into_iter()
+                    .flat_map(|d| [0.02, 0.05, 0.1, 0.2, 0.4].map(|f| now + d * f)),
+            )
             .filter_map(|y| folds(y).map(|k| (k, y)))
-            .min_by_key(|&(k, _)| k);
+            .min_by(|a, b| a.0.0.cmp(&b.0.0).then(a.0.1.total_cmp(&b.0.1)));
         let Some((after, x)) = best else { continue };
-        if after >= before {
+        if after.0 > before.0 || (after.0 == before.0 && after.1 >= 0.5 * before.1) {
             continue;
         }
         let found = star.places[..star.proper].iter().find_map(|(t, place)| {
