@@ -326,33 +326,22 @@ fn a_part_that_folds_on_its_square_goes_through_charts() {
     );
     assert!(err.contains("remesh measured at"), "{err}");
     assert!(dir.path().join("patch.qm").exists());
-    let out = qm(
-        &[
+    let square = |extra: &[&str]| {
+        let mut args = vec![
             "compress",
             "patch.obj",
             "-o",
             "square.qm",
             "--base-domain",
             "square",
-            "--quiet",
-        ],
-        dir.path(),
-    );
+        ];
+        args.extend_from_slice(extra);
+        qm(&args, dir.path())
+    };
+    let out = square(&["--quiet"]);
     assert_fails_cleanly(&out, "patch.obj", "(--accept-folds writes it anyway)");
     assert!(!dir.path().join("square.qm").exists());
-    let out = qm(
-        &[
-            "compress",
-            "patch.obj",
-            "-o",
-            "square.qm",
-            "--base-domain",
-            "square",
-            "--accept-folds",
-            "--quiet",
-        ],
-        dir.path(),
-    );
+    let out = square(&["--accept-folds", "--quiet"]);
     assert_fails_cleanly(&out, "patch.obj", "does not map onto its square");
 }
 
