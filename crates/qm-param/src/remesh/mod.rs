@@ -315,14 +315,15 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
                     ..
                 },
             ) => {
-                // Where neither works: the charts' folds or distance if
-                // that is why (the flags that override them apply there),
-                // else the square's failure.
+                // Where neither works: the charts' folds, distance or memory
+                // if that is why (the flags that override them apply
+                // there), else the square's failure.
                 let mut remeshed = remesh_charts(mesh, options).map_err(|c| match c {
                     Error::Remesh {
                         failure: RemeshFailure::Folds { .. } | RemeshFailure::TooFar { .. },
                         ..
-                    } => c,
+                    }
+                    | Error::Memory { .. } => c,
                     _ => e.clone(),
                 })?;
                 remeshed.report.fallback = Some(format!("one square per part failed: {e}"));
@@ -366,6 +367,10 @@ const BASE_SLACK: f64 = 1.1;
 /// Base triangles per sample at most: about 2% of a stream of about a byte
 /// a sample, at 16 bytes a base triangle.
 const BASE_SHARE: f64 = 0.02 / 16.0;
+
+/// How many samples of [`BYTES_PER_SAMPLE`] a sample through charts counts
+/// for in the memory check.
+const CHARTS_SAMPLE_WEIGHT: u64 = 4;
 
 /// Most untangling sweeps of the map onto the base domain
 /// (`charts::untangle_map`).
@@ -444,7 +449,18 @@ fn remesh_charts(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     }
     let quads: usize = bases.iter().map(|b| 3 * b.triangles.len()).sum();
     let samples = quads as f64 * ((1u64 << level) as f64 + 1.0).powi(2);
-    check_memory(input_triangles, samples as u64, options.max_memory)?;
+    // Sampling through charts holds every quad's samples and fit nodes
+    // before they are numbered: the bunny's 1.04M samples took 1.1 GB, so
+    // a sample counts four times here.
+    let needed = encode_memory(input_triangles, CHARTS_SAMPLE_WEIGHT * samples as u64);
+    if needed > options.max_memory {
+        return Err(Error::Memory {
+            needed,
+            limit: options.max_memory,
+            triangles: input_triangles,
+            samples: samples as u64,
+        });
+    }
     bases
         .par_iter_mut()
         .zip(&cleaned.components)
