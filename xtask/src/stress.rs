@@ -16,7 +16,8 @@
 //!
 //! Everything is deterministic: the randomness is a hash of fixed seeds.
 //! Each mesh's topology (Euler characteristic, components, boundary loops,
-//! non-manifold edges and vertices) is measured and printed.
+//! whether it is manifold) is measured with the remesher's own clean-up and
+//! `topology`, and printed.
 
 use std::collections::HashMap;
 use std::f64::consts::{PI, TAU};
@@ -24,6 +25,8 @@ use std::path::{Path, PathBuf};
 
 use qm::PolyMesh;
 use qm::lift::glam::{DQuat, DVec3};
+use qm::param::TriMesh;
+use qm::param::clean;
 
 /// Grid step of the genus-12 plate's marching tetrahedra (~60k vertices).
 const PLATE_STEP: f64 = 0.052;
@@ -134,123 +137,53 @@ fn between(stream: u64, i: u64, lo: f64, hi: f64) -> f64 {
 }
 
 // ---------------------------------------------------------------------------
-// Topology.
+// Topology, as the remesher sees it.
 
-/// Counts that tell a mesh's topology.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// A generated mesh's topology: the whole mesh's (`qm::param::clean::topology`,
+/// which also checks that it is a consistently oriented manifold), and each
+/// connected component's after the remesher's clean-up.
 pub struct Topology {
-    /// Vertices used by a face.
-    pub vertices: usize,
-    pub edges: usize,
-    pub faces: usize,
-    /// Edge-connected components of the faces.
-    pub components: usize,
-    /// Edges with one face.
-    pub boundary_edges: usize,
-    /// Connected chains of boundary edges.
-    pub boundary_loops: usize,
-    /// Edges with more than two faces.
-    pub nonmanifold_edges: usize,
-    /// Edges whose two faces run them the same way.
-    pub misoriented_edges: usize,
-    /// Vertices whose faces form more than one fan.
-    pub nonmanifold_vertices: usize,
+    pub whole: clean::Topology,
+    pub parts: Vec<clean::Topology>,
 }
 
 impl Topology {
     pub fn of(tris: &Tris) -> Topology {
-        let n = tris.positions.len();
-        let mut used = vec![false; n];
-        // Undirected edge -> (faces, faces running it low-to-high).
-        let mut edges: HashMap<(u32, u32), (u32, u32)> = HashMap::new();
-        let mut parts = UnionFind::new(n);
-        for f in &tris.faces {
-            for k in 0..3 {
-                let (a, b) = (f[k], f[(k + 1) % 3]);
-                used[a as usize] = true;
-                let e = edges.entry((a.min(b), a.max(b))).or_default();
-                e.0 += 1;
-                e.1 += u32::from(a < b);
-                parts.union(a, b);
-            }
-        }
-        let mut boundary = UnionFind::new(n);
-        let mut on_boundary = vec![false; n];
-        let (mut boundary_edges, mut nonmanifold_edges, mut misoriented_edges) = (0, 0, 0);
-        for (&(a, b), &(count, forward)) in &edges {
-            match count {
-                1 => {
-                    boundary_edges += 1;
-                    boundary.union(a, b);
-                    on_boundary[a as usize] = true;
-                    on_boundary[b as usize] = true;
-                }
-                2 if forward != 1 => misoriented_edges += 1,
-                2 => {}
-                _ => nonmanifold_edges += 1,
-            }
-        }
-        let roots = |uf: &mut UnionFind, keep: &[bool]| {
-            let mut r: Vec<u32> = (0..n as u32)
-                .filter(|&v| keep[v as usize])
-                .map(|v| uf.find(v))
-                .collect();
-            r.sort_unstable();
-            r.dedup();
-            r.len()
-        };
-        Topology {
-            vertices: used.iter().filter(|&&u| u).count(),
-            edges: edges.len(),
-            faces: tris.faces.len(),
-            components: roots(&mut parts, &used),
-            boundary_edges,
-            boundary_loops: roots(&mut boundary, &on_boundary),
-            nonmanifold_edges,
-            misoriented_edges,
-            nonmanifold_vertices: fans(tris).iter().filter(|&&k| k > 1).count(),
-        }
+        let whole = clean::topology(&TriMesh {
+            positions: tris.positions.clone(),
+            triangles: tris.faces.clone(),
+        });
+        let mesh = PolyMesh::from_faces(tris.positions.clone(), &tris.faces);
+        let parts = clean::clean(&mesh)
+            .map(|c| clean::components_topology(&c.components))
+            .unwrap_or_default();
+        Topology { whole, parts }
     }
 
-    /// `V - E + F`.
-    pub fn euler(&self) -> i64 {
-        self.vertices as i64 - self.edges as i64 + self.faces as i64
-    }
-
-    /// The genus of a connected manifold: `chi = 2 - 2g - b`.
+    /// The genus of a single closed or bounded part.
     pub fn genus(&self) -> Option<i64> {
-        let twice = 2 - self.euler() - self.boundary_loops as i64;
-        (self.components == 1 && self.is_manifold() && twice % 2 == 0).then_some(twice / 2)
-    }
-
-    /// No edge with more than two faces, no pinched vertex, and one
-    /// orientation throughout.
-    pub fn is_manifold(&self) -> bool {
-        self.nonmanifold_edges == 0 && self.nonmanifold_vertices == 0 && self.misoriented_edges == 0
+        (self.whole.manifold && self.parts.len() == 1).then_some(self.whole.genus)
     }
 }
 
 impl std::fmt::Display for Topology {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let w = &self.whole;
         write!(
             f,
             "{} vertices, {} faces, {} edges, Euler {}, {} components, \
              {} boundary loops ({} edges), {}",
-            self.vertices,
-            self.faces,
-            self.edges,
-            self.euler(),
-            self.components,
-            self.boundary_loops,
-            self.boundary_edges,
-            if self.is_manifold() {
-                "manifold".to_string()
+            w.vertices,
+            w.faces,
+            w.edges,
+            w.euler,
+            self.parts.len(),
+            w.boundary_loops,
+            w.boundary_edges,
+            if w.manifold {
+                "manifold"
             } else {
-                format!(
-                    "NOT manifold ({} edges with > 2 faces, {} misoriented edges, \
-                     {} pinched vertices)",
-                    self.nonmanifold_edges, self.misoriented_edges, self.nonmanifold_vertices
-                )
+                "NOT manifold"
             }
         )?;
         if let Some(g) = self.genus() {
@@ -941,8 +874,8 @@ mod tests {
     #[test]
     fn plate_has_genus_twelve() {
         let t = Topology::of(&genus_plate(0.07));
-        assert!(t.is_manifold(), "{t}");
-        assert_eq!((t.components, t.boundary_edges), (1, 0), "{t}");
+        assert!(t.whole.manifold, "{t}");
+        assert_eq!((t.parts.len(), t.whole.boundary_edges), (1, 0), "{t}");
         assert_eq!(t.genus(), Some(12), "{t}");
     }
 
@@ -954,53 +887,41 @@ mod tests {
             0.1,
             |p| p.length() - 1.0,
         ));
-        assert!(t.is_manifold(), "{t}");
-        assert_eq!((t.components, t.boundary_edges), (1, 0), "{t}");
+        assert!(t.whole.manifold, "{t}");
+        assert_eq!((t.parts.len(), t.whole.boundary_edges), (1, 0), "{t}");
         assert_eq!(t.genus(), Some(0), "{t}");
     }
 
     #[test]
     fn sphere_has_a_hundred_holes() {
         let t = Topology::of(&holed_sphere(5, 100));
-        assert!(t.is_manifold(), "{t}");
-        assert_eq!(t.components, 1, "{t}");
-        assert_eq!(t.boundary_loops, 100, "{t}");
+        assert!(t.whole.manifold, "{t}");
+        assert_eq!(t.parts.len(), 1, "{t}");
+        assert_eq!(t.whole.boundary_loops, 100, "{t}");
         assert_eq!(t.genus(), Some(0), "{t}");
     }
 
-    /// The faces of each edge-connected component, as meshes of their own.
-    fn components(all: &Tris) -> Vec<Tris> {
-        let mut uf = UnionFind::new(all.positions.len());
-        for f in &all.faces {
-            uf.union(f[0], f[1]);
-            uf.union(f[1], f[2]);
-        }
-        let mut groups: HashMap<u32, Tris> = HashMap::new();
-        for f in &all.faces {
-            groups.entry(uf.find(f[0])).or_default().faces.push(*f);
-        }
-        let mut out: Vec<Tris> = groups.into_values().collect();
-        for part in &mut out {
-            part.positions = all.positions.clone();
-            part.compact();
-        }
-        out
+    /// The remesher's components of the 300 parts.
+    fn components(all: &Tris) -> Vec<TriMesh> {
+        clean::clean(&PolyMesh::from_faces(all.positions.clone(), &all.faces))
+            .unwrap()
+            .components
     }
 
     #[test]
     fn parts_are_separate_and_closed() {
         let all = parts(300);
         let t = Topology::of(&all);
-        assert!(t.is_manifold(), "{t}");
-        assert_eq!((t.components, t.boundary_edges), (300, 0), "{t}");
+        assert!(t.whole.manifold, "{t}");
+        assert_eq!((t.parts.len(), t.whole.boundary_edges), (300, 0), "{t}");
         let mut tori = 0;
-        for part in components(&all) {
-            let p = Topology::of(&part);
-            assert!((50..=500).contains(&p.vertices), "{p}");
-            match p.genus() {
-                Some(0) => {}
-                Some(1) => tori += 1,
-                _ => panic!("{p}"),
+        for p in &t.parts {
+            assert!((50..=500).contains(&p.vertices), "{p:?}");
+            assert!(p.manifold && p.is_closed(), "{p:?}");
+            match p.genus {
+                0 => {}
+                1 => tori += 1,
+                _ => panic!("{p:?}"),
             }
         }
         assert_eq!(tori, 100);
@@ -1028,21 +949,12 @@ mod tests {
     #[test]
     fn height_field_is_one_open_sheet() {
         let t = Topology::of(&height_field(120));
-        assert!(t.is_manifold(), "{t}");
-        assert_eq!(t.components, 1, "{t}");
-        assert!(t.boundary_loops >= 1 && t.boundary_edges > 0, "{t}");
+        assert!(t.whole.manifold, "{t}");
+        assert_eq!(t.parts.len(), 1, "{t}");
+        assert!(
+            t.whole.boundary_loops >= 1 && t.whole.boundary_edges > 0,
+            "{t}"
+        );
         assert_eq!(t.genus(), Some(0), "{t}");
-    }
-
-    #[test]
-    fn topology_counts_a_pinch_and_a_boundary() {
-        // Two triangles sharing one vertex only.
-        let tris = Tris {
-            positions: vec![DVec3::ZERO; 5],
-            faces: vec![[0, 1, 2], [0, 3, 4]],
-        };
-        let t = Topology::of(&tris);
-        assert_eq!(t.nonmanifold_vertices, 1);
-        assert_eq!((t.components, t.boundary_loops, t.euler()), (1, 1, 1));
     }
 }
