@@ -3,8 +3,9 @@
 //! Each base triangle becomes three quads, through its centroid and its
 //! edges' midpoints; the quad at corner `A` is where `A`'s barycentric
 //! coordinate is the largest. So every quad lies in the star of one base
-//! vertex, and is sampled in that vertex's *chart*: its star flattened
-//! conformally around it, each base triangle of the star mapped linearly,
+//! vertex, and is sampled in that vertex's *chart*: its star laid flat
+//! around it (edge lengths kept, angles scaled to a turn), the triangles
+//! across its outer edges unfolded, each base triangle mapped linearly,
 //! and every input triangle whose three vertices the map puts in the star
 //! drawn there through their barycentric coordinates. A grid point of the
 //! quad (its bilinear place in the base triangle) is looked up among the
@@ -19,7 +20,7 @@ use qm_lift::{BaseMesh, Layout};
 use rayon::prelude::*;
 
 use super::resample::{Patch, fit_grids};
-use super::simplify::{Base, Location};
+use super::simplify::{Base, Location, Ring, ring};
 use crate::{Error, RemeshFailure, Result, TriMesh};
 
 /// The quads of base triangle `t`: corner `c`'s quad has corners `t[c]`,
@@ -98,13 +99,44 @@ struct Chart {
     /// Per star triangle (index into the base triangles), the 2D places of
     /// its corners.
     star: HashMap<u32, [DVec2; 3]>,
-    /// The drawn input triangles: index and 2D corners.
-    drawn: Vec<(u32, [DVec2; 3])>,
-    grid: Buckets,
+    /// The input triangles drawn in the star's own triangles.
+    drawn: Drawn,
     /// Input triangles that reach into the unfolded triangles around the
     /// star, looked up in where none of the star's own holds a point.
-    outer: Vec<(u32, [DVec2; 3])>,
-    outer_grid: Buckets,
+    outer: Drawn,
+}
+
+/// Drawn input triangles (index and 2D corners) and their buckets.
+struct Drawn {
+    triangles: Vec<(u32, [DVec2; 3])>,
+    grid: Buckets,
+}
+
+impl Drawn {
+    fn new(triangles: Vec<(u32, [DVec2; 3])>) -> Drawn {
+        let grid = Buckets::new(&triangles);
+        Drawn { triangles, grid }
+    }
+
+    /// The triangle nearest to holding `x`: its smallest barycentric
+    /// coordinate (non-negative inside), its index and its coordinates.
+    fn nearest(&self, x: DVec2) -> Option<(f64, u32, [f64; 3])> {
+        let mut best: Option<(f64, u32, [f64; 3])> = None;
+        for reach in [0usize, 1, 3] {
+            for &k in self.grid.near(x, reach) {
+                let (t, q) = &self.triangles[k as usize];
+                let l = barycentric(q, x);
+                let worst = l[0].min(l[1]).min(l[2]);
+                if best.is_none_or(|b| worst > b.0) {
+                    best = Some((worst, *t, l));
+                }
+                if worst >= -1e-12 {
+                    return best;
+                }
+            }
+        }
+        best
+    }
 }
 
 /// A uniform grid of buckets over the drawn triangles.
@@ -193,40 +225,17 @@ struct Hit {
     inside: bool,
 }
 
-/// The drawn triangle nearest to holding `x`: its index, its smallest
-/// barycentric coordinate (non-negative inside) and its coordinates.
-fn nearest(
-    drawn: &[(u32, [DVec2; 3])],
-    grid: &Buckets,
-    x: DVec2,
-) -> Option<(f64, usize, [f64; 3])> {
-    let mut best: Option<(f64, usize, [f64; 3])> = None;
-    for reach in [0usize, 1, 3] {
-        for &k in grid.near(x, reach) {
-            let l = barycentric(&drawn[k as usize].1, x);
-            let worst = l[0].min(l[1]).min(l[2]);
-            if best.is_none_or(|b| worst > b.0) {
-                best = Some((worst, k as usize, l));
-            }
-            if worst >= -1e-12 {
-                return best;
-            }
-        }
-    }
-    best
-}
-
 impl Chart {
     fn locate(&self, x: DVec2) -> Option<Hit> {
-        let mut best = nearest(&self.drawn, &self.grid, x).map(|(w, k, l)| (w, self.drawn[k].0, l));
+        let mut best = self.drawn.nearest(x);
         if best.is_none_or(|b| b.0 < -1e-9)
-            && let Some((w, k, l)) = nearest(&self.outer, &self.outer_grid, x)
-            && best.is_none_or(|b| w > b.0)
+            && let Some(outer) = self.outer.nearest(x)
+            && best.is_none_or(|b| outer.0 > b.0)
         {
-            best = Some((w, self.outer[k].0, l));
+            best = Some(outer);
         }
         if best.is_none() {
-            for (t, q) in &self.drawn {
+            for (t, q) in &self.drawn.triangles {
                 let l = barycentric(q, x);
                 let worst = l[0].min(l[1]).min(l[2]);
                 if best.is_none_or(|b| worst > b.0) {
@@ -250,48 +259,6 @@ impl Chart {
             inside: worst >= -1e-9,
         })
     }
-}
-
-/// The ring of base vertex `a`: star triangles in order around it, and the
-/// vertices `w_i` with triangle `i` being `(a, w_i, w_i+1)`.
-fn base_ring(a: u32, star: &[u32], triangles: &[[u32; 3]]) -> (Vec<u32>, Vec<u32>, bool) {
-    let spokes: Vec<(u32, u32, u32)> = star
-        .iter()
-        .map(|&t| {
-            let tri = triangles[t as usize];
-            let c = tri.iter().position(|&w| w == a).expect("star triangle");
-            (tri[(c + 1) % 3], tri[(c + 2) % 3], t)
-        })
-        .collect();
-    let closed = spokes.iter().all(|s| spokes.iter().any(|o| o.1 == s.0));
-    let start = spokes
-        .iter()
-        .position(|s| !spokes.iter().any(|o| o.1 == s.0))
-        .unwrap_or(0);
-    let mut verts = vec![spokes[start].0];
-    let mut order = Vec::new();
-    let mut at = start;
-    loop {
-        let (_, y, t) = spokes[at];
-        order.push(t);
-        if order.len() == spokes.len() {
-            if !closed {
-                verts.push(y);
-            }
-            break;
-        }
-        match spokes.iter().position(|s| s.0 == y) {
-            Some(next) => {
-                verts.push(y);
-                at = next;
-            }
-            None => {
-                verts.push(y);
-                break;
-            }
-        }
-    }
-    (verts, order, closed)
 }
 
 /// The 2D places of `a`'s ring vertices: each star triangle keeps its edge
@@ -364,6 +331,7 @@ type QuadSamples = (usize, Vec<Option<Sampled>>, Vec<Option<Sampled>>);
 pub fn resample(
     mesh: &TriMesh,
     base: &Base,
+    domain: &Domain,
     level: u32,
     fit_rounds: usize,
 ) -> Result<(Patch, usize)> {
@@ -383,13 +351,7 @@ pub fn resample(
             in_face[f as usize].push(v as u32);
         }
     }
-    let mut vertex_triangles: Vec<Vec<u32>> = vec![Vec::new(); mesh.positions.len()];
-    for (t, tri) in mesh.triangles.iter().enumerate() {
-        for &v in tri {
-            vertex_triangles[v as usize].push(t as u32);
-        }
-    }
-    let star = stars(mesh, base);
+    let (star, vertex_triangles) = (&domain.stars, &domain.around);
     let mut vertices: Vec<u32> = star.keys().copied().collect();
     vertices.sort_unstable_by_key(|v| quads.compact[v]);
 
@@ -409,7 +371,7 @@ pub fn resample(
     let per_chart: Vec<(Vec<QuadSamples>, Orientations)> = vertices
         .par_iter()
         .map(|&a| {
-            let chart = build_chart(a, &star[&a], mesh, base, &in_face, &vertex_triangles);
+            let chart = build_chart(a, &star[&a], mesh, base, &in_face, vertex_triangles);
             let folded = chart.orientations(mesh, base);
             let chart = chart.chart;
             let mut out = Vec::new();
@@ -431,7 +393,7 @@ pub fn resample(
                                 continue;
                             }
                             let other = others.entry(o).or_insert_with(|| {
-                                build_chart(o, &star[&o], mesh, base, &in_face, &vertex_triangles)
+                                build_chart(o, &star[&o], mesh, base, &in_face, vertex_triangles)
                                     .chart
                             });
                             if let Some(p) = other.star.get(&t) {
@@ -575,7 +537,7 @@ pub(super) struct Star {
 }
 
 /// The stars of every base vertex of `base`, keyed by component vertex.
-pub(super) fn stars(mesh: &TriMesh, base: &Base) -> HashMap<u32, Star> {
+fn stars(mesh: &TriMesh, base: &Base) -> Result<HashMap<u32, Star>> {
     let mut around: HashMap<u32, Vec<u32>> = HashMap::new();
     for (t, tri) in base.triangles.iter().enumerate() {
         for &v in tri {
@@ -591,7 +553,15 @@ pub(super) fn stars(mesh: &TriMesh, base: &Base) -> HashMap<u32, Star> {
     around
         .into_iter()
         .map(|(a, star)| {
-            let (ring, order, closed) = base_ring(a, &star, &base.triangles);
+            let Ring {
+                verts: ring,
+                faces: order,
+                closed,
+            } = ring(a, &star, &base.triangles).ok_or_else(|| {
+                Error::remesh(RemeshFailure::Step(format!(
+                    "the base domain's triangles around base vertex {a} are not one fan"
+                )))
+            })?;
             let ring_positions: Vec<DVec3> =
                 ring.iter().map(|&w| mesh.positions[w as usize]).collect();
             let flat = flatten_star(
@@ -656,9 +626,32 @@ pub(super) fn stars(mesh: &TriMesh, base: &Base) -> HashMap<u32, Star> {
                 places.push((t, place));
             }
             let proper = order.len();
-            (a, Star { places, proper })
+            Ok((a, Star { places, proper }))
         })
         .collect()
+}
+
+/// What sampling and untangling share of a component and its base domain:
+/// every base vertex's star (which only the base triangles decide, not the
+/// map) and the input triangles at each input vertex.
+pub(super) struct Domain {
+    stars: HashMap<u32, Star>,
+    around: Vec<Vec<u32>>,
+}
+
+impl Domain {
+    pub(super) fn new(mesh: &TriMesh, base: &Base) -> Result<Domain> {
+        let mut around: Vec<Vec<u32>> = vec![Vec::new(); mesh.positions.len()];
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            for &v in tri {
+                around[v as usize].push(t as u32);
+            }
+        }
+        Ok(Domain {
+            stars: stars(mesh, base)?,
+            around,
+        })
+    }
 }
 
 /// The place of input vertex `v` in the chart of `star` (centred on `a`),
@@ -694,23 +687,14 @@ fn place_in(star: &Star, a: u32, v: u32, base: &Base) -> Option<DVec2> {
 /// weights, with or without stretch reweighting) sampled the development
 /// models and scans worse than the map the simplification leaves
 /// (docs/remesher-next.md).
-pub(super) fn untangle_map(mesh: &TriMesh, base: &mut Base, rounds: usize) {
-    if rounds == 0 {
-        return;
-    }
-    let stars = stars(mesh, base);
+pub(super) fn untangle_map(mesh: &TriMesh, base: &mut Base, domain: &Domain, rounds: usize) {
+    let (stars, around) = (&domain.stars, &domain.around);
     let n = mesh.positions.len();
-    let mut around: Vec<Vec<u32>> = vec![Vec::new(); n];
-    for (t, tri) in mesh.triangles.iter().enumerate() {
-        for &v in tri {
-            around[v as usize].push(t as u32);
-        }
-    }
     let mut todo: Vec<u32> = (0..n as u32).collect();
     for _ in 0..rounds {
         let mut next = Vec::new();
         for &p in &todo {
-            if let Some(moved) = untangle_vertex(mesh, base, &stars, &around, p) {
+            if let Some(moved) = untangle_vertex(mesh, base, stars, around, p) {
                 if moved {
                     for &t in &around[p as usize] {
                         next.extend(mesh.triangles[t as usize]);
@@ -949,14 +933,11 @@ fn build_chart(
             }
         }
     }
-    let (grid, outer_grid) = (Buckets::new(&own), Buckets::new(&outer));
     Built {
         chart: Chart {
             star: places.places.iter().copied().collect(),
-            drawn: own,
-            grid,
-            outer,
-            outer_grid,
+            drawn: Drawn::new(own),
+            outer: Drawn::new(outer),
         },
         all,
         areas,

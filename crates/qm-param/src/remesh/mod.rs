@@ -452,22 +452,32 @@ fn remesh_charts(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     // Sampling through charts holds every quad's samples and fit nodes
     // before they are numbered: the bunny's 1.04M samples took 1.1 GB, so
     // a sample counts four times here.
-    let needed = encode_memory(input_triangles, CHARTS_SAMPLE_WEIGHT * samples as u64);
-    if needed > options.max_memory {
-        return Err(Error::Memory {
-            needed,
-            limit: options.max_memory,
-            triangles: input_triangles,
-            samples: samples as u64,
-        });
-    }
-    bases
+    check_weighted_memory(
+        input_triangles,
+        samples as u64,
+        CHARTS_SAMPLE_WEIGHT,
+        options.max_memory,
+    )?;
+    // Each part's stars and adjacency, then its map untangled.
+    let domains: Vec<charts::Domain> = bases
         .par_iter_mut()
         .zip(&cleaned.components)
-        .for_each(|(base, component)| charts::untangle_map(component, base, UNTANGLE_ROUNDS));
+        .enumerate()
+        .map(|(c, (base, component))| {
+            let domain = charts::Domain::new(component, base)
+                .map_err(|e| e.in_part(|| part(c, component)))?;
+            charts::untangle_map(component, base, &domain, UNTANGLE_ROUNDS);
+            Ok(domain)
+        })
+        .collect::<Result<_>>()?;
     let mut patches = Vec::with_capacity(bases.len());
-    for (c, (base, component)) in bases.iter().zip(&cleaned.components).enumerate() {
-        let (patch, folded) = charts::resample(component, base, level, options.fit_rounds)
+    for (c, ((base, component), domain)) in bases
+        .iter()
+        .zip(&cleaned.components)
+        .zip(&domains)
+        .enumerate()
+    {
+        let (patch, folded) = charts::resample(component, base, domain, level, options.fit_rounds)
             .map_err(|e| e.in_part(|| part(c, component)))?;
         if folded > 0 && !options.accept_folds {
             let failure = RemeshFailure::Folds {
@@ -829,7 +839,12 @@ pub fn encode_memory(triangles: u64, samples: u64) -> u64 {
 
 /// Refuses work whose [`encode_memory`] is above `limit`.
 pub fn check_memory(triangles: u64, samples: u64, limit: u64) -> Result<()> {
-    let needed = encode_memory(triangles, samples);
+    check_weighted_memory(triangles, samples, 1, limit)
+}
+
+/// [`check_memory`] with each sample counted `weight` times.
+fn check_weighted_memory(triangles: u64, samples: u64, weight: u64, limit: u64) -> Result<()> {
+    let needed = encode_memory(triangles, weight.saturating_mul(samples));
     if needed > limit {
         return Err(Error::Memory {
             needed,
@@ -1068,7 +1083,7 @@ mod tests {
     use crate::distance::{DistanceOptions, distance};
 
     /// A closed latitude-longitude sphere of radius 1, `n` segments around.
-    fn sphere(n: u32) -> PolyMesh {
+    pub(super) fn sphere(n: u32) -> PolyMesh {
         let rings = n / 2;
         let mut positions = vec![DVec3::Z, DVec3::NEG_Z];
         for r in 1..rings {

@@ -128,10 +128,68 @@ fn edge_key(a: u32, b: u32) -> u64 {
 
 /// A vertex's 1-ring: `faces[i]` is `(v, verts[i], verts[i + 1])` (indices
 /// taken cyclically when `closed`).
-struct Ring {
-    verts: Vec<u32>,
-    faces: Vec<u32>,
-    closed: bool,
+pub(super) struct Ring {
+    pub verts: Vec<u32>,
+    pub faces: Vec<u32>,
+    pub closed: bool,
+}
+
+/// The 1-ring of `v` in a manifold triangle mesh, from `faces`, the indices
+/// into `triangles` of its triangles (counter-clockwise): in order around
+/// it, a boundary fan from its first boundary neighbour. `None` if they do
+/// not make one fan.
+pub(super) fn ring(v: u32, faces: &[u32], triangles: &[[u32; 3]]) -> Option<Ring> {
+    if faces.is_empty() {
+        return None;
+    }
+    // (x, y, face) per face: v, x, y counter-clockwise.
+    let spokes: Vec<(u32, u32, u32)> = faces
+        .iter()
+        .map(|&f| {
+            let t = triangles[f as usize];
+            let c = t.iter().position(|&w| w == v).expect("face of its vertex");
+            (t[(c + 1) % 3], t[(c + 2) % 3], f)
+        })
+        .collect();
+    // A boundary fan starts at the x that is no face's y.
+    let start = spokes
+        .iter()
+        .position(|s| !spokes.iter().any(|o| o.1 == s.0))
+        .unwrap_or(0);
+    let closed = spokes.iter().all(|s| spokes.iter().any(|o| o.1 == s.0));
+    let mut verts = vec![spokes[start].0];
+    let mut order = Vec::with_capacity(spokes.len());
+    let mut at = start;
+    for _ in 0..spokes.len() {
+        let (_, y, f) = spokes[at];
+        order.push(f);
+        match spokes.iter().position(|s| s.0 == y) {
+            Some(next) if order.len() < spokes.len() => {
+                verts.push(y);
+                at = next;
+            }
+            _ => {
+                if !closed {
+                    verts.push(y);
+                }
+                break;
+            }
+        }
+    }
+    if order.len() != spokes.len() {
+        return None;
+    }
+    let mut unique = verts.clone();
+    unique.sort_unstable();
+    unique.dedup();
+    if unique.len() != verts.len() {
+        return None;
+    }
+    Some(Ring {
+        verts,
+        faces: order,
+        closed,
+    })
 }
 
 /// A planned removal of `v` into `u`.
@@ -180,7 +238,6 @@ struct Simplifier<'a> {
     alive_faces: usize,
     alive_vertices: usize,
     closed: bool,
-    clamped: usize,
     feature: Vec<bool>,
 }
 
@@ -270,7 +327,6 @@ impl<'a> Simplifier<'a> {
             alive_faces: mesh.triangles.len(),
             alive_vertices: n,
             closed,
-            clamped: 0,
             feature: Vec::new(),
         };
         s.prune_creases(&edge_faces, min_crease);
@@ -370,58 +426,7 @@ impl<'a> Simplifier<'a> {
     }
 
     fn ring(&self, v: u32) -> Option<Ring> {
-        let fs = &self.vfaces[v as usize];
-        if fs.is_empty() {
-            return None;
-        }
-        // (x, y, face) per face: v, x, y counter-clockwise.
-        let spokes: Vec<(u32, u32, u32)> = fs
-            .iter()
-            .map(|&f| {
-                let t = self.faces[f as usize];
-                let c = t.iter().position(|&w| w == v).expect("face of its vertex");
-                (t[(c + 1) % 3], t[(c + 2) % 3], f)
-            })
-            .collect();
-        // A boundary fan starts at the x that is no face's y.
-        let start = spokes
-            .iter()
-            .position(|s| !spokes.iter().any(|o| o.1 == s.0))
-            .unwrap_or(0);
-        let closed = spokes.iter().all(|s| spokes.iter().any(|o| o.1 == s.0));
-        let mut verts = vec![spokes[start].0];
-        let mut faces = Vec::with_capacity(spokes.len());
-        let mut at = start;
-        for _ in 0..spokes.len() {
-            let (_, y, f) = spokes[at];
-            faces.push(f);
-            match spokes.iter().position(|s| s.0 == y) {
-                Some(next) if faces.len() < spokes.len() => {
-                    verts.push(y);
-                    at = next;
-                }
-                _ => {
-                    if !closed {
-                        verts.push(y);
-                    }
-                    break;
-                }
-            }
-        }
-        if faces.len() != spokes.len() {
-            return None;
-        }
-        let mut unique = verts.clone();
-        unique.sort_unstable();
-        unique.dedup();
-        if unique.len() != verts.len() {
-            return None;
-        }
-        Some(Ring {
-            verts,
-            faces,
-            closed,
-        })
+        ring(v, &self.vfaces[v as usize], &self.faces)
     }
 
     /// MAPS's conformal flattening of `v`'s ring: `v` at the origin. On a
@@ -802,9 +807,6 @@ impl<'a> Simplifier<'a> {
                 }
             }
             let (worst, f, mut l) = best.expect("a fan triangle");
-            if worst < -1e-9 {
-                self.clamped += 1;
-            }
             if worst < 0.0 {
                 for x in &mut l {
                     *x = x.max(0.0);
@@ -862,40 +864,6 @@ impl<'a> Simplifier<'a> {
 mod tests {
     use super::*;
 
-    /// A UV sphere of `rings x segments`.
-    pub(crate) fn sphere(rings: usize, segments: usize) -> TriMesh {
-        let mut positions = vec![DVec3::Z];
-        for r in 1..rings {
-            let theta = std::f64::consts::PI * r as f64 / rings as f64;
-            for s in 0..segments {
-                let phi = std::f64::consts::TAU * s as f64 / segments as f64;
-                positions.push(DVec3::new(
-                    theta.sin() * phi.cos(),
-                    theta.sin() * phi.sin(),
-                    theta.cos(),
-                ));
-            }
-        }
-        positions.push(-DVec3::Z);
-        let last = (positions.len() - 1) as u32;
-        let at = |r: usize, s: usize| (1 + (r - 1) * segments + s % segments) as u32;
-        let mut triangles = Vec::new();
-        for s in 0..segments {
-            triangles.push([0, at(1, s), at(1, s + 1)]);
-            triangles.push([last, at(rings - 1, s + 1), at(rings - 1, s)]);
-        }
-        for r in 1..rings - 1 {
-            for s in 0..segments {
-                triangles.push([at(r, s), at(r + 1, s), at(r + 1, s + 1)]);
-                triangles.push([at(r, s), at(r + 1, s + 1), at(r, s + 1)]);
-            }
-        }
-        TriMesh {
-            positions,
-            triangles,
-        }
-    }
-
     fn euler(triangles: &[[u32; 3]]) -> i64 {
         let mut verts: Vec<u32> = triangles.iter().flatten().copied().collect();
         verts.sort_unstable();
@@ -911,8 +879,9 @@ mod tests {
 
     #[test]
     fn a_sphere_simplifies_to_its_target_and_every_vertex_is_mapped() {
-        let mesh = sphere(20, 32);
-        let base = simplify(&mesh, 40);
+        let sphere = super::super::tests::sphere(32);
+        let mesh = &crate::clean::clean(&sphere).unwrap().components[0];
+        let base = simplify(mesh, 40);
         assert!(
             base.triangles.len() <= 40,
             "{} base triangles",
