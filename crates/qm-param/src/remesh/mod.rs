@@ -38,7 +38,7 @@ use qm_lift::glam::DVec3;
 use qm_lift::{BaseMesh, Layout, SemiRegularMesh};
 use rayon::prelude::*;
 
-use crate::clean::{CleanReport, clean};
+use crate::clean::{CleanReport, Cleaned, clean};
 use crate::{Error, Part, PolyMesh, RemeshFailure, Result, TriMesh};
 
 /// Below this L2 stretch no extra cut is tried.
@@ -282,16 +282,19 @@ pub struct NormalReport {
 /// least [`CLEARLY_BETTER_DB`] worse, and the report says why
 /// ([`RemeshReport::fallback`]).
 pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
+    let input_triangles = mesh.faces().map(|f| f.len().saturating_sub(2) as u64).sum();
+    check_memory(input_triangles, 0, options.max_memory)?;
+    let cleaned = clean(mesh)?;
     match options.domain {
-        BaseDomain::Square => remesh_square(mesh, options),
-        BaseDomain::Charts => remesh_charts(mesh, options),
-        BaseDomain::Auto => match remesh_square(mesh, options) {
+        BaseDomain::Square => remesh_square(cleaned, input_triangles, options),
+        BaseDomain::Charts => remesh_charts(mesh, cleaned, input_triangles, options),
+        BaseDomain::Auto => match remesh_square(cleaned.clone(), input_triangles, options) {
             Ok(mut square) => {
                 let psnr = measure(mesh, &square.mesh)?;
                 square.report.psnr = Some(psnr);
                 // The simplified base domain where it measures clearly
                 // better (a shape of many handles, a bunny's ears).
-                match remesh_charts(mesh, options) {
+                match remesh_charts(mesh, cleaned, input_triangles, options) {
                     Ok(mut charts)
                         if charts
                             .report
@@ -318,14 +321,16 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
                 // Where neither works: the charts' folds, distance or memory
                 // if that is why (the flags that override them apply
                 // there), else the square's failure.
-                let mut remeshed = remesh_charts(mesh, options).map_err(|c| match c {
-                    Error::Remesh {
-                        failure: RemeshFailure::Folds { .. } | RemeshFailure::TooFar { .. },
-                        ..
-                    }
-                    | Error::Memory { .. } => c,
-                    _ => e.clone(),
-                })?;
+                let mut remeshed = remesh_charts(mesh, cleaned, input_triangles, options).map_err(
+                    |c| match c {
+                        Error::Remesh {
+                            failure: RemeshFailure::Folds { .. } | RemeshFailure::TooFar { .. },
+                            ..
+                        }
+                        | Error::Memory { .. } => c,
+                        _ => e.clone(),
+                    },
+                )?;
                 remeshed.report.fallback = Some(format!("one square per part failed: {e}"));
                 Ok(remeshed)
             }
@@ -377,10 +382,13 @@ const CHARTS_SAMPLE_WEIGHT: u64 = 4;
 const UNTANGLE_ROUNDS: usize = 50;
 
 /// Remeshes through a simplified base domain (modules `simplify`, `charts`).
-fn remesh_charts(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
-    let input_triangles = mesh.faces().map(|f| f.len().saturating_sub(2) as u64).sum();
-    check_memory(input_triangles, 0, options.max_memory)?;
-    let cleaned = clean(mesh)?;
+/// `mesh` is the input, for the remesh's measure; `cleaned` its clean-up.
+fn remesh_charts(
+    mesh: &PolyMesh,
+    cleaned: Cleaned,
+    input_triangles: u64,
+    options: &RemeshOptions,
+) -> Result<Remeshed> {
     let input_vertices: usize = cleaned.components.iter().map(|c| c.positions.len()).sum();
     let total_area: f64 = cleaned.components.iter().map(TriMesh::area).sum();
     if cleaned.components.is_empty() || total_area <= 0.0 {
@@ -522,10 +530,11 @@ fn measure(input: &PolyMesh, remesh: &SemiRegularMesh) -> Result<f64> {
 }
 
 /// Remeshes each component onto one square (the first design).
-fn remesh_square(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
-    let input_triangles = mesh.faces().map(|f| f.len().saturating_sub(2) as u64).sum();
-    check_memory(input_triangles, 0, options.max_memory)?;
-    let mut cleaned = clean(mesh)?;
+fn remesh_square(
+    mut cleaned: Cleaned,
+    input_triangles: u64,
+    options: &RemeshOptions,
+) -> Result<Remeshed> {
     let input_vertices: usize = cleaned.components.iter().map(|c| c.positions.len()).sum();
     for c in &mut cleaned.components {
         while c.triangles.len() < SMALL_PART {
@@ -694,7 +703,7 @@ fn remesh_square(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
 /// Joins the components' patches into one semi-regular mesh and, with
 /// [`RemeshOptions::normal`], places its samples for normal details.
 fn finish(
-    cleaned: crate::clean::Cleaned,
+    cleaned: Cleaned,
     patches: Vec<(resample::Patch, ComponentReport)>,
     level: u32,
     options: &RemeshOptions,
