@@ -15,7 +15,7 @@
 
 use std::collections::HashMap;
 
-use qm_lift::glam::{DVec2, DVec3};
+use qm_lift::glam::{DMat2, DVec2, DVec3};
 use qm_lift::{BaseMesh, Layout};
 use rayon::prelude::*;
 
@@ -372,7 +372,7 @@ pub fn resample(
         .par_iter()
         .map(|&a| {
             let chart = build_chart(a, &star[&a], mesh, base, &in_face, vertex_triangles);
-            let folded = chart.orientations(mesh, base);
+            let folded = chart.orientations(mesh, &domain.held);
             let chart = chart.chart;
             let mut out = Vec::new();
             // Where this chart draws nothing (a star whose input triangles
@@ -502,21 +502,24 @@ struct Built {
     /// Every drawn triangle, folded or not, and its signed area.
     all: Vec<(u32, [DVec2; 3])>,
     areas: Vec<f64>,
+    /// The triangles drawn the right way partly in the unfolded ones.
+    outer_right: Vec<u32>,
 }
 
 impl Built {
     /// The drawn triangles, split into those turned over in this chart and
     /// those turned the right way.
     ///
-    /// A triangle whose three corners lie on feature lines is neither: the
-    /// map lays feature lines straight along base edges, so an ear of a
-    /// ragged boundary (two boundary edges) has no area there.
-    fn orientations(&self, mesh: &TriMesh, base: &Base) -> Orientations {
-        let (mut folded, mut right) = (Vec::new(), Vec::new());
+    /// A triangle whose three corners lie on feature lines, or are held
+    /// between them, is neither: the map lays feature lines straight along
+    /// base edges, so an ear of a ragged boundary (two boundary edges) has
+    /// no area there, nor has a vertex whose neighbours all lie on one.
+    fn orientations(&self, mesh: &TriMesh, held: &[bool]) -> Orientations {
+        let (mut folded, mut right) = (Vec::new(), self.outer_right.clone());
         for ((t, _), &area) in self.all.iter().zip(&self.areas) {
             let on_lines = mesh.triangles[*t as usize]
                 .iter()
-                .all(|&v| base.feature[v as usize]);
+                .all(|&v| held[v as usize]);
             if area > 0.0 {
                 right.push(*t);
             } else if !on_lines {
@@ -637,6 +640,9 @@ fn stars(mesh: &TriMesh, base: &Base) -> Result<HashMap<u32, Star>> {
 pub(super) struct Domain {
     stars: HashMap<u32, Star>,
     around: Vec<Vec<u32>>,
+    /// Per input vertex: whether the map holds it on a feature line, or
+    /// between such vertices and base vertices only.
+    held: Vec<bool>,
 }
 
 impl Domain {
@@ -647,17 +653,31 @@ impl Domain {
                 around[v as usize].push(t as u32);
             }
         }
+        let fixed =
+            |v: u32| base.feature[v as usize] || base.location[v as usize] == Location::Vertex;
+        let held = (0..mesh.positions.len() as u32)
+            .map(|v| {
+                base.feature[v as usize]
+                    || around[v as usize].iter().all(|&t| {
+                        mesh.triangles[t as usize]
+                            .iter()
+                            .all(|&w| w == v || fixed(w))
+                    })
+            })
+            .collect();
         Ok(Domain {
             stars: stars(mesh, base)?,
             around,
+            held,
         })
     }
 }
 
 /// The place of input vertex `v` in the chart of `star` (centred on `a`),
-/// if the map puts it in the star.
-fn place_in(star: &Star, a: u32, v: u32, base: &Base) -> Option<DVec2> {
-    let star = &star.places[..star.proper];
+/// if the map puts it in the star's own triangles (or, `wide`, in those
+/// unfolded around it too).
+fn place_in(star: &Star, a: u32, v: u32, base: &Base, wide: bool) -> Option<DVec2> {
+    let star = &star.places[..if wide { star.places.len() } else { star.proper }];
     match base.location[v as usize] {
         Location::Vertex => {
             if v == a {
@@ -737,7 +757,7 @@ fn untangle_vertex(
     for c in corners {
         let a = tri[c];
         let star = &stars[&a];
-        let place = |w: u32| place_in(star, a, w, base);
+        let place = |w: u32| place_in(star, a, w, base, false);
         // Turned-over triangles, and their total area turned over: a move
         // that turns none back but less area over is progress too, the way
         // a knot of several vertices comes undone over the sweeps.
@@ -817,6 +837,403 @@ fn untangle_vertex(
     tried
 }
 
+/// The knots single moves leave (rings whose kernel is empty in every
+/// chart) come undone by moving their neighbourhoods together: Gauss-Seidel
+/// sweeps over the free vertices within some rings of a folded one, each
+/// moved down the energy of its triangles. A triangle's energy is its
+/// conformal distortion (MIPS, `|J|^2 / det J`, J the map from the input
+/// triangle to its drawing) with Escobar et al.'s regularized determinant
+/// `(det + sqrt(det^2 + 4 delta^2)) / 2`, so that a turned-over triangle
+/// has a finite energy that falls towards unfolding, taken in the chart
+/// that draws it best, plus a large penalty where every chart draws it
+/// turned over (a fold, as sampling counts it). Every triangle is thus
+/// judged the same way whichever of its corners moves. The neighbourhood
+/// widens while folds remain.
+///
+/// Returns how many triangles are still folded.
+pub(super) fn untangle_knots(
+    mesh: &TriMesh,
+    base: &mut Base,
+    domain: &Domain,
+    sweeps: usize,
+) -> usize {
+    let mut knots = Knots::new(mesh, domain);
+    let n = mesh.positions.len();
+    let folded_now = |knots: &Knots, base: &Base| -> Vec<u32> {
+        (0..mesh.triangles.len() as u32)
+            .filter(|&t| knots.folded(base, t))
+            .collect()
+    };
+    let mut folded = folded_now(&knots, base);
+    for reach in [2usize, 4, 8, 16] {
+        if folded.is_empty() {
+            break;
+        }
+        // The neighbourhood: `reach` rings around the folded triangles.
+        let mut inside = vec![false; n];
+        let mut front: Vec<u32> = folded
+            .iter()
+            .flat_map(|&t| mesh.triangles[t as usize])
+            .collect();
+        for &p in &front {
+            inside[p as usize] = true;
+        }
+        for _ in 0..reach {
+            let mut next = Vec::new();
+            for &p in &front {
+                for &t in &domain.around[p as usize] {
+                    for w in mesh.triangles[t as usize] {
+                        if !inside[w as usize] {
+                            inside[w as usize] = true;
+                            next.push(w);
+                        }
+                    }
+                }
+            }
+            front = next;
+        }
+        let region: Vec<u32> = (0..n as u32)
+            .filter(|&p| inside[p as usize] && knots.movable(base, p))
+            .collect();
+        // With the fold penalty first; where folds remain, the smooth
+        // energy alone and then the penalty again, kept if it leaves fewer.
+        knots.penalty = FOLD_PENALTY;
+        knots.sweep(base, &region, &inside, sweeps);
+        folded = folded_now(&knots, base);
+        if !folded.is_empty() {
+            let kept = base.location.clone();
+            knots.penalty = 0.0;
+            knots.sweep(base, &region, &inside, sweeps);
+            knots.penalty = FOLD_PENALTY;
+            knots.sweep(base, &region, &inside, sweeps);
+            let after = folded_now(&knots, base);
+            if after.len() < folded.len() {
+                folded = after;
+            } else {
+                base.location = kept;
+            }
+        }
+    }
+    folded.len()
+}
+
+/// The penalty of a fold in [`untangle_knots`]' energy, against a
+/// distortion of at least 2 per triangle.
+const FOLD_PENALTY: f64 = 1e4;
+
+/// The regularization of the determinant in [`untangle_knots`]' energy,
+/// relative to the input triangle's own area.
+const UNTANGLE_DELTA: f64 = 1e-2;
+
+/// What [`untangle_knots`] reads: the stars, the input's adjacency, and
+/// each input triangle's own 2D shape (inverted).
+struct Knots<'a> {
+    mesh: &'a TriMesh,
+    domain: &'a Domain,
+    shapes: Vec<DMat2>,
+    /// The penalty of a fold now: none while the smooth energy alone
+    /// untangles, [`FOLD_PENALTY`] after.
+    penalty: f64,
+}
+
+impl<'a> Knots<'a> {
+    fn new(mesh: &'a TriMesh, domain: &'a Domain) -> Knots<'a> {
+        let shapes = mesh
+            .triangles
+            .iter()
+            .map(|tri| {
+                let [o, a, b] = tri.map(|v| mesh.positions[v as usize]);
+                let (u, v) = (a - o, b - o);
+                let len = u.length();
+                let cross = u.cross(v).length();
+                // A degenerate input triangle takes the equilateral shape.
+                let shape = if len > 0.0 && cross > 1e-12 * len * len.max(v.length()) {
+                    DMat2::from_cols(
+                        DVec2::new(len, 0.0),
+                        DVec2::new(u.dot(v) / len, cross / len),
+                    )
+                } else {
+                    DMat2::from_cols(DVec2::new(1.0, 0.0), DVec2::new(0.5, 0.75f64.sqrt()))
+                };
+                shape.inverse()
+            })
+            .collect();
+        Knots {
+            mesh,
+            domain,
+            shapes,
+            penalty: FOLD_PENALTY,
+        }
+    }
+
+    /// Gauss-Seidel sweeps over `region` (the vertices marked `inside`),
+    /// each after the first over the neighbours of those that moved.
+    fn sweep(&self, base: &mut Base, region: &[u32], inside: &[bool], sweeps: usize) {
+        let mut active = region.to_vec();
+        for _ in 0..sweeps {
+            let mut next = Vec::new();
+            for &p in &active {
+                if self.relax(base, p) {
+                    for &t in &self.domain.around[p as usize] {
+                        next.extend(
+                            self.mesh.triangles[t as usize]
+                                .into_iter()
+                                .filter(|&w| inside[w as usize] && self.movable(base, w)),
+                        );
+                    }
+                }
+            }
+            next.sort_unstable();
+            next.dedup();
+            if next.is_empty() {
+                break;
+            }
+            active = next;
+        }
+    }
+
+    fn movable(&self, base: &Base, p: u32) -> bool {
+        matches!(base.location[p as usize], Location::Face(..)) && !self.domain.held[p as usize]
+    }
+
+    /// The base vertices whose charts may draw triangle `t`: the corners
+    /// of its corners' base triangles.
+    fn charts(&self, base: &Base, t: u32) -> Vec<u32> {
+        let mut out = Vec::with_capacity(9);
+        for v in self.mesh.triangles[t as usize] {
+            match base.location[v as usize] {
+                Location::Vertex => out.push(v),
+                Location::Face(f, _) => out.extend(base.triangles[f as usize]),
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
+    /// Triangle `t`'s drawings, in every chart that draws it whole.
+    fn drawings(&self, base: &Base, t: u32) -> impl Iterator<Item = [DVec2; 3]> {
+        let tri = self.mesh.triangles[t as usize];
+        self.charts(base, t).into_iter().filter_map(move |a| {
+            let star = &self.domain.stars[&a];
+            Some([
+                place_in(star, a, tri[0], base, true)?,
+                place_in(star, a, tri[1], base, true)?,
+                place_in(star, a, tri[2], base, true)?,
+            ])
+        })
+    }
+
+    /// Whether every chart that draws `t` draws it turned over, as sampling
+    /// counts a fold (triangles held between feature lines aside).
+    fn folded(&self, base: &Base, t: u32) -> bool {
+        let tri = self.mesh.triangles[t as usize];
+        if tri.iter().all(|&v| self.domain.held[v as usize]) {
+            return false;
+        }
+        let mut drawn = false;
+        for [p, q, r] in self.drawings(base, t) {
+            if drawn_right(p, q, r) {
+                return false;
+            }
+            drawn = true;
+        }
+        drawn
+    }
+
+    /// Triangle `t`'s energy: its least distortion over the charts that
+    /// draw it, plus the penalty if it is folded (or drawn in none).
+    fn energy(&self, base: &Base, t: u32) -> f64 {
+        let tri = self.mesh.triangles[t as usize];
+        let held = tri.iter().all(|&v| self.domain.held[v as usize]);
+        let mut best = f64::INFINITY;
+        let mut right = held;
+        for [p, q, r] in self.drawings(base, t) {
+            right |= drawn_right(p, q, r);
+            let j = DMat2::from_cols(q - p, r - p) * self.shapes[t as usize];
+            let det = j.determinant();
+            let h = 0.5 * (det + (det * det + 4.0 * UNTANGLE_DELTA * UNTANGLE_DELTA).sqrt());
+            let norm = j.x_axis.length_squared() + j.y_axis.length_squared();
+            if h > 0.0 {
+                best = best.min(norm / h);
+            }
+        }
+        if !best.is_finite() {
+            return 2.0 * FOLD_PENALTY;
+        }
+        best + if right { 0.0 } else { self.penalty }
+    }
+
+    fn ring_energy(&self, base: &Base, p: u32) -> f64 {
+        self.domain.around[p as usize]
+            .iter()
+            .map(|&t| self.energy(base, t))
+            .sum()
+    }
+
+    /// One Gauss-Seidel step at `p`: a few line-searched steps down its
+    /// triangles' energy, proposed in the chart of the nearest corner of
+    /// its base triangle (with the triangles unfolded around it), and, where
+    /// one of its triangles is folded, the kernel of its ring there. Returns
+    /// whether it moved.
+    fn relax(&self, base: &mut Base, p: u32) -> bool {
+        let Location::Face(f, b) = base.location[p as usize] else {
+            return false;
+        };
+        let tri = base.triangles[f as usize];
+        let c = (0..3).max_by(|&i, &j| b[i].total_cmp(&b[j])).unwrap_or(0);
+        let a = tri[c];
+        let star = &self.domain.stars[&a];
+        let Some(start) = place_in(star, a, p, base, true) else {
+            return false;
+        };
+        // The ring's size, for steps.
+        let mut size = 0.0f64;
+        for &t in &self.domain.around[p as usize] {
+            for w in self.mesh.triangles[t as usize] {
+                if let Some(x) = place_in(star, a, w, base, true) {
+                    size = size.max((x - start).length());
+                }
+            }
+        }
+        if size <= 0.0 {
+            return false;
+        }
+        let locate = |x: DVec2| {
+            star.places.iter().find_map(|(t, place)| {
+                let l = barycentric(place, x);
+                l.iter().all(|&v| v >= 0.0).then_some(Location::Face(*t, l))
+            })
+        };
+        let old = base.location[p as usize];
+        let at = |base: &mut Base, x: DVec2| -> Option<f64> {
+            base.location[p as usize] = locate(x)?;
+            Some(self.ring_energy(base, p))
+        };
+        let mut best = (start, self.ring_energy(base, p), old);
+        let folded = self.domain.around[p as usize]
+            .iter()
+            .any(|&t| self.folded(base, t));
+        if folded
+            && let Some(ring) =
+                ring_chart(self.mesh, base, &self.domain.stars, &self.domain.around, p)
+        {
+            let edges = &ring.edges;
+            let mean = edges.iter().map(|&(q, _)| q).sum::<DVec2>() / edges.len().max(1) as f64;
+            let chart = &self.domain.stars[&ring.corner];
+            for from in [ring.at, mean] {
+                let Some(y) = kernel_point(edges, from) else {
+                    continue;
+                };
+                let Some(l) = chart.places.iter().find_map(|(t, place)| {
+                    let l = barycentric(place, y);
+                    l.iter().all(|&v| v >= 0.0).then_some(Location::Face(*t, l))
+                }) else {
+                    continue;
+                };
+                base.location[p as usize] = l;
+                let e = self.ring_energy(base, p);
+                if e < best.1 {
+                    // Back in the proposing chart, where the steps go on.
+                    if let Some(x) = place_in(star, a, p, base, true) {
+                        best = (x, e, l);
+                    }
+                }
+            }
+            base.location[p as usize] = best.2;
+        }
+        for _ in 0..3 {
+            let (x, e) = (best.0, best.1);
+            let h = 1e-5 * size;
+            let mut g = DVec2::ZERO;
+            for (k, d) in [DVec2::X, DVec2::Y].into_iter().enumerate() {
+                let (Some(plus), Some(minus)) = (at(base, x + d * h), at(base, x - d * h)) else {
+                    g = DVec2::ZERO;
+                    break;
+                };
+                g[k] = plus - minus;
+            }
+            base.location[p as usize] = best.2;
+            if !g.is_finite() || g.length() <= 0.0 {
+                break;
+            }
+            let d = -g.normalize();
+            let mut step = 0.5 * size;
+            let mut found = None;
+            while step > 1e-4 * size {
+                let y = x + d * step;
+                if let Some(ey) = at(base, y)
+                    && ey < e
+                {
+                    found = Some((y, ey, base.location[p as usize]));
+                    break;
+                }
+                step *= 0.5;
+            }
+            base.location[p as usize] = best.2;
+            let Some(next) = found else { break };
+            best = next;
+        }
+        base.location[p as usize] = best.2;
+        best.0.distance(start) > 1e-6 * size
+    }
+}
+
+/// Vertex `p`'s ring drawn in the chart of the nearest corner of its base
+/// triangle that holds it whole.
+struct RingChart {
+    corner: u32,
+    at: DVec2,
+    /// Per triangle: its other two corners' places, counter-clockwise.
+    edges: Vec<(DVec2, DVec2)>,
+}
+
+fn ring_chart(
+    mesh: &TriMesh,
+    base: &Base,
+    stars: &HashMap<u32, Star>,
+    around: &[Vec<u32>],
+    p: u32,
+) -> Option<RingChart> {
+    let Location::Face(f, b) = base.location[p as usize] else {
+        return None;
+    };
+    let tri = base.triangles[f as usize];
+    let mut corners = [0usize, 1, 2];
+    corners.sort_by(|&i, &j| b[j].total_cmp(&b[i]));
+    'corner: for (c, wide) in corners
+        .iter()
+        .map(|&c| (c, false))
+        .chain(corners.iter().map(|&c| (c, true)))
+    {
+        let a = tri[c];
+        let star = &stars[&a];
+        let Some(at) = place_in(star, a, p, base, wide) else {
+            continue;
+        };
+        let mut edges = Vec::with_capacity(around[p as usize].len());
+        for &t in &around[p as usize] {
+            let tri = mesh.triangles[t as usize];
+            let Some(k) = tri.iter().position(|&w| w == p) else {
+                continue 'corner;
+            };
+            let (Some(q), Some(r)) = (
+                place_in(star, a, tri[(k + 1) % 3], base, wide),
+                place_in(star, a, tri[(k + 2) % 3], base, wide),
+            ) else {
+                continue 'corner;
+            };
+            edges.push((q, r));
+        }
+        return Some(RingChart {
+            corner: a,
+            at,
+            edges,
+        });
+    }
+    None
+}
+
 /// A place for `p` inside the kernel of its ring in a chart (every one of
 /// its triangles turned the right way), from `x` by cyclic projection onto
 /// the half-planes of the ring's edges; `None` if it finds none.
@@ -824,18 +1241,25 @@ fn untangle(
     mesh: &TriMesh,
     around: &[u32],
     p: u32,
-    mut x: DVec2,
+    x: DVec2,
     place: impl Fn(u32) -> Option<DVec2>,
 ) -> Option<DVec2> {
     let mut edges = Vec::with_capacity(around.len());
-    let mut scale = 0.0f64;
     for &t in around {
         let tri = mesh.triangles[t as usize];
         let k = tri.iter().position(|&w| w == p)?;
-        let (q, r) = (place(tri[(k + 1) % 3])?, place(tri[(k + 2) % 3])?);
-        scale = scale.max((r - q).length());
-        edges.push((q, r));
+        edges.push((place(tri[(k + 1) % 3])?, place(tri[(k + 2) % 3])?));
     }
+    kernel_point(&edges, x)
+}
+
+/// A point in the kernel of a ring given by its edges, from `x` by cyclic
+/// projection onto the edges' half-planes; `None` if it finds none.
+fn kernel_point(edges: &[(DVec2, DVec2)], mut x: DVec2) -> Option<DVec2> {
+    let scale = edges
+        .iter()
+        .map(|&(q, r)| (r - q).length())
+        .fold(0.0f64, f64::max);
     // From a wide margin to a thin one: a ring pinched against a feature
     // line has a thin kernel.
     let start = x;
@@ -843,7 +1267,7 @@ fn untangle(
         x = start;
         for _ in 0..64 {
             let mut inside = true;
-            for &(q, r) in &edges {
+            for &(q, r) in edges {
                 let e = r - q;
                 let len = e.length();
                 if len <= 0.0 {
@@ -862,6 +1286,17 @@ fn untangle(
         }
     }
     None
+}
+
+/// Whether a triangle drawn at `p, q, r` is turned the right way, and not
+/// so nearly collinear (an ear laid along a feature line) that barycentric
+/// coordinates in it would be noise.
+fn drawn_right(p: DVec2, q: DVec2, r: DVec2) -> bool {
+    let longest = (q - p)
+        .length_squared()
+        .max((r - q).length_squared())
+        .max((p - r).length_squared());
+    (q - p).perp_dot(r - p) > 1e-9 * longest
 }
 
 fn build_chart(
@@ -895,6 +1330,7 @@ fn build_chart(
     let mut areas = Vec::new();
     let mut own = Vec::new();
     let mut outer = Vec::new();
+    let mut outer_right = Vec::new();
     let mut keys: Vec<u32> = coords.keys().copied().collect();
     keys.sort_unstable();
     for v in keys {
@@ -912,15 +1348,10 @@ fn build_chart(
             };
             // Nearly collinear (an ear laid along a feature line) counts as
             // no area: its barycentric coordinates would be noise.
-            let longest = (q - p)
-                .length_squared()
-                .max((r - q).length_squared())
-                .max((p - r).length_squared());
-            let raw = (q - p).perp_dot(r - p);
-            let area = if raw.abs() <= 1e-9 * longest {
-                0.0
+            let area = if drawn_right(p, q, r) || (q - p).perp_dot(r - p) < 0.0 {
+                (q - p).perp_dot(r - p)
             } else {
-                raw
+                0.0
             };
             if op && oq && or {
                 areas.push(area);
@@ -930,6 +1361,7 @@ fn build_chart(
                 }
             } else if area > 0.0 {
                 outer.push((t, [p, q, r]));
+                outer_right.push(t);
             }
         }
     }
@@ -941,6 +1373,7 @@ fn build_chart(
         },
         all,
         areas,
+        outer_right,
     }
 }
 
@@ -1008,6 +1441,107 @@ mod tests {
         let samples = r.mesh.positions().len() as f64;
         assert!(samples <= super::super::MAX_SAMPLES_PER_VERTEX * 48.0 * 24.0);
         assert!(r.report.components.iter().all(|c| c.flipped == 0));
+    }
+
+    /// A simplified sphere, its domain, and its map's fold count.
+    fn sphere_map() -> (TriMesh, super::Base) {
+        let sphere = super::super::tests::sphere(48);
+        let mesh = crate::clean::clean(&sphere).unwrap().components.remove(0);
+        let base = super::super::simplify::simplify(&mesh, 40);
+        (mesh, base)
+    }
+
+    fn folds(mesh: &TriMesh, domain: &super::Domain, base: &super::Base) -> usize {
+        let knots = super::Knots::new(mesh, domain);
+        (0..mesh.triangles.len() as u32)
+            .filter(|&t| knots.folded(base, t))
+            .count()
+    }
+
+    fn free(base: &super::Base, v: u32) -> bool {
+        matches!(base.location[v as usize], super::Location::Face(..)) && !base.feature[v as usize]
+    }
+
+    /// Swapped locations along input edges: the knots' energy alone
+    /// undoes them.
+    #[test]
+    fn swapped_vertices_come_undone() {
+        let (mesh, mut base) = sphere_map();
+        let domain = super::Domain::new(&mesh, &base).expect("stars");
+        assert_eq!(folds(&mesh, &domain, &base), 0, "the simplification's map");
+        let mut swapped = 0;
+        for tri in mesh.triangles.iter().step_by(97) {
+            let [a, b, _] = *tri;
+            if free(&base, a) && free(&base, b) {
+                base.location.swap(a as usize, b as usize);
+                swapped += 1;
+            }
+        }
+        assert!(swapped >= 5, "{swapped} swaps");
+        let tangled = folds(&mesh, &domain, &base);
+        assert!(tangled > 0, "the swaps fold the map");
+        let left = super::untangle_knots(&mesh, &mut base, &domain, 50);
+        assert_eq!(left, 0, "{tangled} folds, {left} left");
+        assert_eq!(folds(&mesh, &domain, &base), 0);
+    }
+
+    /// A patch mirrored in its base triangle (two barycentric coordinates
+    /// swapped about its centre vertex) is folded all over; together the
+    /// single moves and the knots' energy unfold it.
+    #[test]
+    fn a_mirrored_patch_comes_undone() {
+        let (mesh, mut base) = sphere_map();
+        let domain = super::Domain::new(&mesh, &base).expect("stars");
+        // The free vertex deepest in its base triangle, and the free
+        // vertices of its face within three rings.
+        let (centre, f, at) = (0..mesh.positions.len() as u32)
+            .filter_map(|v| match base.location[v as usize] {
+                super::Location::Face(f, b) if free(&base, v) => Some((v, f, b)),
+                _ => None,
+            })
+            .max_by(|x, y| {
+                let m = |b: [f64; 3]| b[0].min(b[1]).min(b[2]);
+                m(x.2).total_cmp(&m(y.2))
+            })
+            .expect("a free vertex");
+        let mut patch = vec![centre];
+        for _ in 0..4 {
+            let mut next = patch.clone();
+            for &p in &patch {
+                for &t in &domain.around[p as usize] {
+                    next.extend(mesh.triangles[t as usize]);
+                }
+            }
+            next.sort_unstable();
+            next.dedup();
+            patch = next;
+        }
+        let mut mirrored = 0;
+        for &v in &patch {
+            if let super::Location::Face(g, b) = base.location[v as usize]
+                && g == f
+                && free(&base, v)
+            {
+                let d = [b[0] - at[0], b[1] - at[1], b[2] - at[2]];
+                let m = [at[0] + d[0], at[1] + d[2], at[2] + d[1]];
+                if m.iter().all(|&x| x >= 0.0) {
+                    base.location[v as usize] = super::Location::Face(f, m);
+                    mirrored += 1;
+                }
+            }
+        }
+        assert!(mirrored >= 20, "{mirrored} mirrored");
+        let tangled = folds(&mesh, &domain, &base);
+        assert!(tangled >= 20, "{tangled} folds");
+        super::untangle_map(&mesh, &mut base, &domain, 50);
+        let single = folds(&mesh, &domain, &base);
+        let left = super::untangle_knots(&mesh, &mut base, &domain, 50);
+        assert_eq!(
+            left, 0,
+            "{tangled} folds, {single} after single moves, {left} after knots"
+        );
+        assert_eq!(folds(&mesh, &domain, &base), 0);
+        eprintln!("{mirrored} mirrored, {tangled} folds, {single} after single moves");
     }
 
     #[test]

@@ -381,6 +381,10 @@ const CHARTS_SAMPLE_WEIGHT: u64 = 4;
 /// (`charts::untangle_map`).
 const UNTANGLE_ROUNDS: usize = 50;
 
+/// Most sweeps of each widening of the untangling of what single moves
+/// leave folded (`charts::untangle_knots`).
+const UNTANGLE_SWEEPS: usize = 50;
+
 /// Remeshes through a simplified base domain (modules `simplify`, `charts`).
 /// `mesh` is the input, for the remesh's measure; `cleaned` its clean-up.
 fn remesh_charts(
@@ -475,6 +479,7 @@ fn remesh_charts(
             let domain = charts::Domain::new(component, base)
                 .map_err(|e| e.in_part(|| part(c, component)))?;
             charts::untangle_map(component, base, &domain, UNTANGLE_ROUNDS);
+            charts::untangle_knots(component, base, &domain, UNTANGLE_SWEEPS);
             Ok(domain)
         })
         .collect::<Result<_>>()?;
