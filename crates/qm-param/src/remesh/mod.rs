@@ -381,6 +381,14 @@ const CHARTS_SAMPLE_WEIGHT: u64 = 4;
 /// (`charts::untangle_map`).
 const UNTANGLE_ROUNDS: usize = 50;
 
+/// Most sweeps of the relaxation of the map's stretch
+/// (`charts::relax_stretch`).
+const STRETCH_SWEEPS: usize = 50;
+
+/// How many times a part whose map still folds is simplified again, its
+/// folded triangles' corners kept as base vertices.
+const REFOLD_TRIES: usize = 3;
+
 /// Most sweeps of each widening of the untangling of what single moves
 /// leave folded (`charts::untangle_knots`).
 const UNTANGLE_SWEEPS: usize = 50;
@@ -476,10 +484,38 @@ fn remesh_charts(
         .zip(&cleaned.components)
         .enumerate()
         .map(|(c, (base, component))| {
-            let domain = charts::Domain::new(component, base)
-                .map_err(|e| e.in_part(|| part(c, component)))?;
-            charts::untangle_map(component, base, &domain, UNTANGLE_ROUNDS);
-            charts::untangle_knots(component, base, &domain, UNTANGLE_SWEEPS);
+            let map = |base: &mut simplify::Base| -> Result<(charts::Domain, Vec<u32>)> {
+                let domain = charts::Domain::new(component, base)
+                    .map_err(|e| e.in_part(|| part(c, component)))?;
+                charts::untangle_map(component, base, &domain, UNTANGLE_ROUNDS);
+                let folded = charts::untangle_knots(component, base, &domain, UNTANGLE_SWEEPS);
+                Ok((domain, folded))
+            };
+            let (mut domain, mut folded) = map(base)?;
+            // Where the map still folds, the folded triangles' corners stay
+            // base vertices in a new simplification, which lays the map out
+            // anew around them; the try with the fewest folds is kept.
+            let mut keep = vec![false; component.positions.len()];
+            let mut last = folded.clone();
+            for _ in 0..REFOLD_TRIES {
+                if folded.is_empty() {
+                    break;
+                }
+                for &t in &last {
+                    for v in component.triangles[t as usize] {
+                        keep[v as usize] = true;
+                    }
+                }
+                let mut again = simplify::simplify_keeping(component, goal(c, level).max(1), &keep);
+                let (d, f) = map(&mut again)?;
+                if f.len() <= folded.len() {
+                    (*base, domain, folded) = (again, d, f.clone());
+                }
+                last = f;
+            }
+            if folded.is_empty() {
+                charts::relax_stretch(component, base, &domain, STRETCH_SWEEPS);
+            }
             Ok(domain)
         })
         .collect::<Result<_>>()?;

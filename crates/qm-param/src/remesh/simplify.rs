@@ -239,15 +239,24 @@ struct Simplifier<'a> {
     alive_vertices: usize,
     closed: bool,
     feature: Vec<bool>,
+    /// Vertices never removed (empty: none).
+    keep: Vec<bool>,
 }
 
 /// Simplifies `mesh` (one cleaned component) towards `target` base
 /// triangles, fewer if no removal is left that keeps the map one to one
 /// and the topology.
 pub fn simplify(mesh: &TriMesh, target: usize) -> Base {
+    simplify_keeping(mesh, target, &[])
+}
+
+/// [`simplify`], never removing the vertices marked in `keep` (a list as
+/// long as the vertices, or empty): they stay base vertices.
+pub fn simplify_keeping(mesh: &TriMesh, target: usize, keep: &[bool]) -> Base {
     // The edge of an equilateral base triangle of the target's mean area.
     let edge = (4.0 * mesh.area() / (3f64.sqrt() * target.max(1) as f64)).sqrt();
     let mut s = Simplifier::new(mesh, MIN_CREASE_LENGTH * edge);
+    s.keep = keep.to_vec();
     s.run(target.max(1));
     s.finish()
 }
@@ -328,6 +337,7 @@ impl<'a> Simplifier<'a> {
             alive_vertices: n,
             closed,
             feature: Vec::new(),
+            keep: Vec::new(),
         };
         s.prune_creases(&edge_faces, min_crease);
         s.feature = s.crease_degree.iter().map(|&d| d > 0).collect();
@@ -533,7 +543,7 @@ impl<'a> Simplifier<'a> {
 
     /// The best removal of `v`, if any is allowed.
     fn plan(&self, v: u32) -> Option<Plan> {
-        if self.removed[v as usize] {
+        if self.removed[v as usize] || self.keep.get(v as usize) == Some(&true) {
             return None;
         }
         let degree = self.crease_degree[v as usize];
