@@ -497,6 +497,7 @@ fn remesh_charts(
             // anew around them; the try with the fewest folds is kept.
             let mut keep = vec![false; component.positions.len()];
             let mut last = folded.clone();
+            let size = base.triangles.len();
             for _ in 0..REFOLD_TRIES {
                 if folded.is_empty() {
                     break;
@@ -506,7 +507,9 @@ fn remesh_charts(
                         keep[v as usize] = true;
                     }
                 }
-                let mut again = simplify::simplify_keeping(component, goal(c, level).max(1), &keep);
+                // As many base triangles as the first try made: a part that
+                // could not come down to its goal asks for no more.
+                let mut again = simplify::simplify_keeping(component, size, &keep);
                 let (d, f) = map(&mut again)?;
                 if f.len() <= folded.len() {
                     (*base, domain, folded) = (again, d, f.clone());

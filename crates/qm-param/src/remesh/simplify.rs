@@ -50,6 +50,13 @@ const MIN_CREASE_LENGTH: f64 = 0.5;
 /// edges, 1 for the equilateral, scaled by `2 / sqrt(3)`) are not made.
 const MIN_QUALITY: f64 = 0.02;
 
+/// How many times its target a simplification may stop at before it goes
+/// on with lower shape bounds.
+const STUCK: usize = 2;
+
+/// The lower shape bounds a stuck simplification goes on with, in turn.
+const LOWER_QUALITY: &[f64] = &[0.005, 0.001, 0.0002];
+
 /// Where an input vertex lies on the base mesh.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Location {
@@ -241,6 +248,8 @@ struct Simplifier<'a> {
     feature: Vec<bool>,
     /// Vertices never removed (empty: none).
     keep: Vec<bool>,
+    /// The least shape (1 equilateral) of a triangle a removal may make.
+    min_quality: f64,
 }
 
 /// Simplifies `mesh` (one cleaned component) towards `target` base
@@ -338,6 +347,7 @@ impl<'a> Simplifier<'a> {
             closed,
             feature: Vec::new(),
             keep: Vec::new(),
+            min_quality: MIN_QUALITY,
         };
         s.prune_creases(&edge_faces, min_crease);
         s.feature = s.crease_degree.iter().map(|&d| d > 0).collect();
@@ -657,7 +667,7 @@ impl<'a> Simplifier<'a> {
                 }
                 quality = quality.min(self.quality3(t));
             }
-            if !ok || quality < MIN_QUALITY {
+            if !ok || quality < self.min_quality {
                 continue;
             }
             let mut q = self.quadric[v as usize];
@@ -694,7 +704,22 @@ impl<'a> Simplifier<'a> {
         2.0 * 3f64.sqrt() * (b - a).cross(c - a).length() / sum
     }
 
+    /// Removes vertices, cheapest first, until `target` triangles are left
+    /// or no removal is. A part left at more than [`STUCK`] times its target
+    /// (a dense scan, whose every removal would make a sliver) goes on with
+    /// the lower shape bounds of [`LOWER_QUALITY`] in turn.
     fn run(&mut self, target: usize) {
+        self.run_at(target);
+        for &bound in LOWER_QUALITY {
+            if self.alive_faces <= STUCK * target {
+                break;
+            }
+            self.min_quality = bound;
+            self.run_at(target);
+        }
+    }
+
+    fn run_at(&mut self, target: usize) {
         let mut heap = BinaryHeap::new();
         for v in 0..self.positions.len() as u32 {
             if let Some(p) = self.plan(v) {
