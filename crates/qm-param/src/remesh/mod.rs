@@ -288,54 +288,87 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     match options.domain {
         BaseDomain::Square => remesh_square(cleaned, input_triangles, options),
         BaseDomain::Charts => remesh_charts(mesh, cleaned, input_triangles, options),
-        BaseDomain::Auto => match remesh_square(cleaned.clone(), input_triangles, options) {
-            Ok(mut square) => {
-                let psnr = measure(mesh, &square.mesh)?;
-                square.report.psnr = Some(psnr);
-                // The simplified base domain where it measures clearly
-                // better (a shape of many handles, a bunny's ears).
-                match remesh_charts(mesh, cleaned, input_triangles, options) {
-                    Ok(mut charts)
-                        if charts
-                            .report
-                            .psnr
-                            .is_some_and(|p| p > psnr + CLEARLY_BETTER_DB) =>
-                    {
-                        charts.report.fallback =
-                            Some(format!("one square per part measured {psnr:.1} dB"));
-                        Ok(charts)
-                    }
-                    _ => Ok(square),
+        BaseDomain::Auto => remesh_auto(mesh, cleaned, input_triangles, options),
+    }
+}
+
+/// The memory estimate of both remeshes at once.
+fn both_memory(cleaned: &Cleaned, input_triangles: u64, options: &RemeshOptions) -> u64 {
+    let vertices: usize = cleaned.components.iter().map(|c| c.positions.len()).sum();
+    let samples = (options.samples_per_vertex.min(MAX_SAMPLES_PER_VERTEX) * vertices as f64)
+        .min(options.max_samples as f64) as u64;
+    encode_memory(
+        2 * input_triangles,
+        (1 + CHARTS_SAMPLE_WEIGHT).saturating_mul(samples),
+    )
+}
+
+/// [`BaseDomain::Auto`]: both remeshes, at once where the memory limit
+/// holds both, and the choice between them.
+fn remesh_auto(
+    mesh: &PolyMesh,
+    cleaned: Cleaned,
+    input_triangles: u64,
+    options: &RemeshOptions,
+) -> Result<Remeshed> {
+    let square = |cleaned: Cleaned| -> Result<Remeshed> {
+        let mut square = remesh_square(cleaned, input_triangles, options)?;
+        square.report.psnr = Some(measure(mesh, &square.mesh)?);
+        Ok(square)
+    };
+    let charts = |cleaned: Cleaned| remesh_charts(mesh, cleaned, input_triangles, options);
+    let both = both_memory(&cleaned, input_triangles, options) <= options.max_memory;
+    let (square, mut made) = if both {
+        let (s, c) = rayon::join(|| square(cleaned.clone()), || charts(cleaned.clone()));
+        (s, Some(c))
+    } else {
+        (square(cleaned.clone()), None)
+    };
+    let mut charts = move || made.take().unwrap_or_else(|| charts(cleaned.clone()));
+    match square {
+        Ok(square) => {
+            let psnr = square.report.psnr.unwrap_or(f64::NEG_INFINITY);
+            // The simplified base domain where it measures clearly better
+            // (a shape of many handles, a bunny's ears).
+            match charts() {
+                Ok(mut charts)
+                    if charts
+                        .report
+                        .psnr
+                        .is_some_and(|p| p > psnr + CLEARLY_BETTER_DB) =>
+                {
+                    charts.report.fallback =
+                        Some(format!("one square per part measured {psnr:.1} dB"));
+                    Ok(charts)
                 }
+                _ => Ok(square),
             }
-            Err(
-                e @ Error::Remesh {
-                    failure:
-                        RemeshFailure::DoesNotMap { .. }
-                        | RemeshFailure::DoesNotGlue { .. }
-                        | RemeshFailure::TooManySegments
-                        | RemeshFailure::Folds { .. },
+        }
+        Err(
+            e @ Error::Remesh {
+                failure:
+                    RemeshFailure::DoesNotMap { .. }
+                    | RemeshFailure::DoesNotGlue { .. }
+                    | RemeshFailure::TooManySegments
+                    | RemeshFailure::Folds { .. },
+                ..
+            },
+        ) => {
+            // Where neither works: the charts' folds, distance or memory if
+            // that is why (the flags that override them apply there), else
+            // the square's failure.
+            let mut remeshed = charts().map_err(|c| match c {
+                Error::Remesh {
+                    failure: RemeshFailure::Folds { .. } | RemeshFailure::TooFar { .. },
                     ..
-                },
-            ) => {
-                // Where neither works: the charts' folds, distance or memory
-                // if that is why (the flags that override them apply
-                // there), else the square's failure.
-                let mut remeshed = remesh_charts(mesh, cleaned, input_triangles, options).map_err(
-                    |c| match c {
-                        Error::Remesh {
-                            failure: RemeshFailure::Folds { .. } | RemeshFailure::TooFar { .. },
-                            ..
-                        }
-                        | Error::Memory { .. } => c,
-                        _ => e.clone(),
-                    },
-                )?;
-                remeshed.report.fallback = Some(format!("one square per part failed: {e}"));
-                Ok(remeshed)
-            }
-            Err(e) => Err(e),
-        },
+                }
+                | Error::Memory { .. } => c,
+                _ => e.clone(),
+            })?;
+            remeshed.report.fallback = Some(format!("one square per part failed: {e}"));
+            Ok(remeshed)
+        }
+        Err(e) => Err(e),
     }
 }
 
@@ -1166,6 +1199,21 @@ mod tests {
     fn quads(r: &Remeshed) -> PolyMesh {
         let layout = r.mesh.layout();
         PolyMesh::from_faces(r.mesh.positions().to_vec(), &layout.quads(layout.level()))
+    }
+
+    /// `auto` makes the same remesh whether both remeshes run at once or
+    /// (under a memory limit that holds one at a time) in turn.
+    #[test]
+    fn auto_is_the_same_at_once_and_in_turn() {
+        let mesh = sphere(40);
+        let at_once = remesh(&mesh, &RemeshOptions::DEFAULT).expect("remesh");
+        let cleaned = clean(&mesh).unwrap();
+        let triangles = mesh.faces().map(|f| f.len() as u64 - 2).sum();
+        let limit = both_memory(&cleaned, triangles, &RemeshOptions::DEFAULT) - 1;
+        let options = RemeshOptions::DEFAULT.with_max_memory(limit);
+        let in_turn = remesh(&mesh, &options).expect("remesh under the limit");
+        assert_eq!(at_once.report.domain, in_turn.report.domain);
+        assert_eq!(at_once.mesh.positions(), in_turn.mesh.positions());
     }
 
     #[test]
