@@ -12,6 +12,13 @@
 //! drawn triangles and takes the surface point there. Grid points on an
 //! edge or corner shared by several quads are one sample (the `Layout`'s
 //! numbering), made once, so the remesh has no cracks.
+//!
+//! Before sampling, the map is mended where the simplification left it
+//! folded or squeezed: single vertices move into the kernel of their ring
+//! (`untangle_map`), knots come undone by moving their neighbourhoods down
+//! a regularized conformal energy (`untangle_knots`), and then every free
+//! vertex moves down the map's stretch (`relax_stretch`), never folding a
+//! triangle, so that sampling density follows the surface.
 
 use std::collections::HashMap;
 

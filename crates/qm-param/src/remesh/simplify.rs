@@ -23,7 +23,9 @@
 //! The cost of a removal is the quadric error of the region merged into `u`
 //! (Garland and Heckbert), plus [`AREA_WEIGHT`] times the area of `v`'s ring
 //! (MAPS's area term, which keeps the base triangles of similar size on flat
-//! parts), divided by the worst shape of the fan's triangles.
+//! parts), divided by the worst shape of the fan's triangles. A fan
+//! triangle below [`MIN_QUALITY`] is not made; a simplification stuck at
+//! more than [`STUCK`] times its target goes on with lower bounds.
 
 use std::cmp::Ordering;
 use std::collections::{BinaryHeap, HashSet};
