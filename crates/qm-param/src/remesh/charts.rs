@@ -28,7 +28,7 @@ use rayon::prelude::*;
 
 use super::resample::{Patch, fit_grids};
 use super::simplify::{Base, Location, Ring, ring};
-use crate::{Error, RemeshFailure, Result, TriMesh};
+use crate::{Error, RemeshFailure, Result, TriMesh, triangle_area};
 
 /// The quads of base triangle `t`: corner `c`'s quad has corners `t[c]`,
 /// the midpoint of `t[c] t[c+1]`, the centroid and the midpoint of
@@ -623,6 +623,22 @@ pub(super) struct Star {
     proper: usize,
 }
 
+impl Star {
+    /// The star's own triangles' places, and (`wide`) the unfolded ones.
+    fn drawn(&self, wide: bool) -> &[(u32, [DVec2; 3])] {
+        &self.places[..if wide { self.places.len() } else { self.proper }]
+    }
+
+    /// The map's location of chart point `x`: the base triangle (among
+    /// [`Star::drawn`]) that holds it, and its barycentric coordinates.
+    fn locate(&self, x: DVec2, wide: bool) -> Option<Location> {
+        self.drawn(wide).iter().find_map(|(t, place)| {
+            let l = barycentric(place, x);
+            l.iter().all(|&v| v >= 0.0).then_some(Location::Face(*t, l))
+        })
+    }
+}
+
 /// The stars of every base vertex of `base`, keyed by component vertex.
 fn stars(mesh: &TriMesh, base: &Base) -> Result<Stars> {
     let mut around: HashMap<u32, Vec<u32>> = HashMap::new();
@@ -791,7 +807,7 @@ impl Domain {
 /// if the map puts it in the star's own triangles (or, `wide`, in those
 /// unfolded around it too).
 fn place_in(star: &Star, a: u32, v: u32, base: &Base, wide: bool) -> Option<DVec2> {
-    let star = &star.places[..if wide { star.places.len() } else { star.proper }];
+    let star = star.drawn(wide);
     match base.location[v as usize] {
         Location::Vertex => {
             if v == a {
@@ -939,12 +955,8 @@ fn untangle_vertex(
         if after.0 > before.0 || (after.0 == before.0 && after.1 >= 0.5 * before.1) {
             continue;
         }
-        let found = star.places[..star.proper].iter().find_map(|(t, place)| {
-            let l = barycentric(place, x);
-            l.iter().all(|&v| v >= 0.0).then_some((*t, l))
-        });
-        if let Some((t, l)) = found {
-            base.location[p as usize] = Location::Face(t, l);
+        if let Some(l) = star.locate(x, false) {
+            base.location[p as usize] = l;
             return Some(true);
         }
     }
@@ -1046,14 +1058,7 @@ pub(super) fn untangle_knots(
 pub(super) fn relax_stretch(mesh: &TriMesh, base: &mut Base, domain: &Domain, sweeps: usize) {
     let mut knots = Knots::new(mesh, domain);
     let mut ratios: Vec<f64> = (0..mesh.triangles.len() as u32)
-        .map(|t| {
-            knots
-                .drawings(base, t)
-                .map(|[p, q, r]| {
-                    (DMat2::from_cols(q - p, r - p) * knots.shapes[t as usize]).determinant()
-                })
-                .fold(f64::NEG_INFINITY, f64::max)
-        })
+        .map(|t| knots.area_ratio(base, t))
         .filter(|r| *r > 0.0)
         .collect();
     if ratios.is_empty() {
@@ -1067,10 +1072,7 @@ pub(super) fn relax_stretch(mesh: &TriMesh, base: &mut Base, domain: &Domain, sw
     let area = mesh
         .triangles
         .iter()
-        .map(|tri| {
-            let [a, b, c] = tri.map(|v| mesh.positions[v as usize]);
-            0.5 * (b - a).cross(c - a).length()
-        })
+        .map(|t| triangle_area(mesh.corners(t)))
         .collect();
     knots.stretch = Some((median, area));
     knots.sweep(base, &region, &inside, sweeps);
@@ -1105,7 +1107,7 @@ impl<'a> Knots<'a> {
             .triangles
             .iter()
             .map(|tri| {
-                let [o, a, b] = tri.map(|v| mesh.positions[v as usize]);
+                let [o, a, b] = mesh.corners(tri);
                 let (u, v) = (a - o, b - o);
                 let len = u.length();
                 let cross = u.cross(v).length();
@@ -1191,6 +1193,16 @@ impl<'a> Knots<'a> {
                 place_in(star, a, tri[2], base, true)?,
             ])
         })
+    }
+
+    /// Triangle `t`'s drawn area over its input area, in the chart that
+    /// draws it largest (negative if every chart draws it turned over).
+    fn area_ratio(&self, base: &Base, t: u32) -> f64 {
+        self.drawings(base, t)
+            .map(|[p, q, r]| {
+                (DMat2::from_cols(q - p, r - p) * self.shapes[t as usize]).determinant()
+            })
+            .fold(f64::NEG_INFINITY, f64::max)
     }
 
     /// Whether every chart that draws `t` draws it turned over, as sampling
@@ -1280,22 +1292,18 @@ impl<'a> Knots<'a> {
         if size <= 0.0 {
             return false;
         }
-        let locate = |x: DVec2| {
-            star.places.iter().find_map(|(t, place)| {
-                let l = barycentric(place, x);
-                l.iter().all(|&v| v >= 0.0).then_some(Location::Face(*t, l))
-            })
-        };
         let old = base.location[p as usize];
         let at = |base: &mut Base, x: DVec2| -> Option<f64> {
-            base.location[p as usize] = locate(x)?;
+            base.location[p as usize] = star.locate(x, true)?;
             Some(self.ring_energy(base, p))
         };
         let first = self.ring_energy(base, p);
         let mut best = (start, first, old);
-        let folded = self.domain.around[p as usize]
-            .iter()
-            .any(|&t| self.folded(base, t));
+        // Relaxing the stretch starts from an unfolded map and keeps it so.
+        let folded = self.stretch.is_none()
+            && self.domain.around[p as usize]
+                .iter()
+                .any(|&t| self.folded(base, t));
         if folded
             && let Some(ring) =
                 ring_chart(self.mesh, base, &self.domain.stars, &self.domain.around, p)
@@ -1307,10 +1315,7 @@ impl<'a> Knots<'a> {
                 let Some(y) = kernel_point(edges, from) else {
                     continue;
                 };
-                let Some(l) = chart.places.iter().find_map(|(t, place)| {
-                    let l = barycentric(place, y);
-                    l.iter().all(|&v| v >= 0.0).then_some(Location::Face(*t, l))
-                }) else {
+                let Some(l) = chart.locate(y, true) else {
                     continue;
                 };
                 base.location[p as usize] = l;
@@ -1732,15 +1737,7 @@ mod tests {
     fn least_ratio(mesh: &TriMesh, domain: &super::Domain, base: &super::Base) -> f64 {
         let knots = super::Knots::new(mesh, domain);
         let mut ratios: Vec<f64> = (0..mesh.triangles.len() as u32)
-            .map(|t| {
-                knots
-                    .drawings(base, t)
-                    .map(|[p, q, r]| {
-                        (super::DMat2::from_cols(q - p, r - p) * knots.shapes[t as usize])
-                            .determinant()
-                    })
-                    .fold(f64::NEG_INFINITY, f64::max)
-            })
+            .map(|t| knots.area_ratio(base, t))
             .collect();
         ratios.sort_by(f64::total_cmp);
         ratios[0] / ratios[ratios.len() / 2]
@@ -1774,29 +1771,10 @@ mod tests {
     /// notches, not on the chords the straight base edges lay across them.
     #[test]
     fn a_ragged_border_is_sampled_along_itself() {
+        // Drop a triangle of the border cells, here and there.
         let m = 40;
-        let at = |i: usize, j: usize| (j * m + i) as u32;
-        let positions: Vec<DVec3> = (0..m * m)
-            .map(|k| {
-                let (x, y) = (
-                    (k % m) as f64 / (m - 1) as f64,
-                    (k / m) as f64 / (m - 1) as f64,
-                );
-                DVec3::new(x, y, 0.1 * (3.0 * x).sin() * (2.0 * y).cos())
-            })
-            .collect();
-        let mut faces = Vec::new();
-        for j in 0..m - 1 {
-            for i in 0..m - 1 {
-                // Drop a triangle of the border cells, here and there.
-                let border = i == 0 || j == 0 || i == m - 2 || j == m - 2;
-                if !(border && (i + j) % 3 == 0) {
-                    faces.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
-                }
-                faces.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
-            }
-        }
-        let input = PolyMesh::from_faces(positions, &faces);
+        let border = |i: usize, j: usize| i == 0 || j == 0 || i == m - 2 || j == m - 2;
+        let input = patch(m, 0.1, |i, j| !(border(i, j) && (i + j) % 3 == 0));
         let cleaned = crate::clean::clean(&input).unwrap();
         assert_eq!(cleaned.components.len(), 1);
         let mesh = &cleaned.components[0];
@@ -1806,14 +1784,14 @@ mod tests {
         let r = remesh(&input, &sampling).expect("remesh");
         let remeshed = triangles(&r);
         let (mut on, mut total) = (0, 0);
-        for (a, b) in boundary_edges(&remeshed) {
+        for [a, b] in boundary_edges(&remeshed) {
             for p in [
                 remeshed.positions[a as usize],
                 remeshed.positions[b as usize],
             ] {
                 let d = border
                     .iter()
-                    .map(|&(u, w)| {
+                    .map(|&[u, w]| {
                         let (u, w) = (mesh.positions[u as usize], mesh.positions[w as usize]);
                         let t = ((p - u).dot(w - u) / (w - u).length_squared()).clamp(0.0, 1.0);
                         p.distance(u.lerp(w, t))
@@ -1831,44 +1809,44 @@ mod tests {
     }
 
     /// The edges of one triangle only.
-    fn boundary_edges(mesh: &TriMesh) -> Vec<(u32, u32)> {
-        let mut count: std::collections::HashMap<(u32, u32), usize> = Default::default();
-        for t in &mesh.triangles {
-            for i in 0..3 {
-                let (a, b) = (t[i], t[(i + 1) % 3]);
-                *count.entry((a.min(b), a.max(b))).or_default() += 1;
-            }
-        }
-        let mut edges: Vec<(u32, u32)> = count
-            .into_iter()
-            .filter(|&(_, c)| c == 1)
-            .map(|(e, _)| e)
-            .collect();
-        edges.sort_unstable();
-        edges
+    fn boundary_edges(mesh: &TriMesh) -> Vec<[u32; 2]> {
+        let topo = super::super::cut::Topology::new(mesh);
+        topo.edges
+            .iter()
+            .zip(&topo.edge_faces)
+            .filter(|(_, faces)| faces[1] == u32::MAX)
+            .map(|(&e, _)| e)
+            .collect()
     }
 
-    #[test]
-    fn an_open_patch_keeps_its_boundary() {
-        let m = 30;
+    /// An `m x m` grid patch over the unit square, a height field of
+    /// amplitude `z`; each cell's first triangle only where `keep(i, j)`.
+    fn patch(m: usize, z: f64, keep: impl Fn(usize, usize) -> bool) -> PolyMesh {
+        let at = |i: usize, j: usize| (j * m + i) as u32;
         let positions: Vec<DVec3> = (0..m * m)
             .map(|k| {
                 let (x, y) = (
                     (k % m) as f64 / (m - 1) as f64,
                     (k / m) as f64 / (m - 1) as f64,
                 );
-                DVec3::new(x, y, 0.2 * (3.0 * x).sin() * (2.0 * y).cos())
+                DVec3::new(x, y, z * (3.0 * x).sin() * (2.0 * y).cos())
             })
             .collect();
-        let at = |i: usize, j: usize| (j * m + i) as u32;
         let mut faces = Vec::new();
         for j in 0..m - 1 {
             for i in 0..m - 1 {
-                faces.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                if keep(i, j) {
+                    faces.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                }
                 faces.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
             }
         }
-        let input = PolyMesh::from_faces(positions, &faces);
+        PolyMesh::from_faces(positions, &faces)
+    }
+
+    #[test]
+    fn an_open_patch_keeps_its_boundary() {
+        let input = patch(30, 0.2, |_, _| true);
         let r = remesh(&input, &options()).expect("remesh");
         let topo = topology(&triangles(&r));
         assert!(topo.manifold, "{topo:?}");

@@ -317,14 +317,16 @@ fn remesh_auto(
         Ok(square)
     };
     let charts = |cleaned: Cleaned| remesh_charts(mesh, cleaned, input_triangles, options);
-    let both = both_memory(&cleaned, input_triangles, options) <= options.max_memory;
-    let (square, mut made) = if both {
-        let (s, c) = rayon::join(|| square(cleaned.clone()), || charts(cleaned.clone()));
-        (s, Some(c))
+    // The charts remesh made beside the square's, or the clean-up it is to
+    // be made from if it is needed.
+    let (square, made) = if both_memory(&cleaned, input_triangles, options) <= options.max_memory {
+        let copy = cleaned.clone();
+        let (s, c) = rayon::join(|| square(copy), || charts(cleaned));
+        (s, Ok(c))
     } else {
-        (square(cleaned.clone()), None)
+        (square(cleaned.clone()), Err(cleaned))
     };
-    let mut charts = move || made.take().unwrap_or_else(|| charts(cleaned.clone()));
+    let charts = move || made.unwrap_or_else(charts);
     match square {
         Ok(square) => {
             let psnr = square.report.psnr.unwrap_or(f64::NEG_INFINITY);
@@ -529,25 +531,27 @@ fn remesh_charts(
             // base vertices in a new simplification, which lays the map out
             // anew around them; the try with the fewest folds is kept.
             let mut keep = vec![false; component.positions.len()];
-            let mut last = folded.clone();
+            let mark = |keep: &mut [bool], folds: &[u32]| {
+                for &t in folds {
+                    for v in component.triangles[t as usize] {
+                        keep[v as usize] = true;
+                    }
+                }
+            };
+            mark(&mut keep, &folded);
             let size = base.triangles.len();
             for _ in 0..REFOLD_TRIES {
                 if folded.is_empty() {
                     break;
                 }
-                for &t in &last {
-                    for v in component.triangles[t as usize] {
-                        keep[v as usize] = true;
-                    }
-                }
                 // As many base triangles as the first try made: a part that
                 // could not come down to its goal asks for no more.
                 let mut again = simplify::simplify_keeping(component, size, &keep);
                 let (d, f) = map(&mut again)?;
+                mark(&mut keep, &f);
                 if f.len() <= folded.len() {
-                    (*base, domain, folded) = (again, d, f.clone());
+                    (*base, domain, folded) = (again, d, f);
                 }
-                last = f;
             }
             if folded.is_empty() {
                 charts::relax_stretch(component, base, &domain, STRETCH_SWEEPS);

@@ -249,7 +249,7 @@ struct Simplifier<'a> {
     closed: bool,
     feature: Vec<bool>,
     /// Vertices never removed (empty: none).
-    keep: Vec<bool>,
+    keep: &'a [bool],
     /// The least shape (1 equilateral) of a triangle a removal may make.
     min_quality: f64,
 }
@@ -267,7 +267,7 @@ pub fn simplify_keeping(mesh: &TriMesh, target: usize, keep: &[bool]) -> Base {
     // The edge of an equilateral base triangle of the target's mean area.
     let edge = (4.0 * mesh.area() / (3f64.sqrt() * target.max(1) as f64)).sqrt();
     let mut s = Simplifier::new(mesh, MIN_CREASE_LENGTH * edge);
-    s.keep = keep.to_vec();
+    s.keep = keep;
     s.run(target.max(1));
     s.finish()
 }
@@ -348,7 +348,7 @@ impl<'a> Simplifier<'a> {
             alive_vertices: n,
             closed,
             feature: Vec::new(),
-            keep: Vec::new(),
+            keep: &[],
             min_quality: MIN_QUALITY,
         };
         s.prune_creases(&edge_faces, min_crease);
