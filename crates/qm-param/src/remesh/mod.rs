@@ -459,21 +459,11 @@ fn remesh_charts(
             .unwrap_or(qm_lift::MAX_LEVEL)
     });
     let goal = |c: usize, level: u32| (shares[c] * triangles_at(level)).round() as usize;
-    let simplify_parts = |level: u32, parts: &[usize]| -> Vec<(usize, simplify::Base)> {
-        parts
-            .par_iter()
-            .map(|&c| {
-                (
-                    c,
-                    simplify::simplify(&cleaned.components[c], goal(c, level)),
-                )
-            })
-            .collect()
-    };
-    let all: Vec<usize> = (0..cleaned.components.len()).collect();
-    let mut bases: Vec<simplify::Base> = simplify_parts(level, &all)
-        .into_iter()
-        .map(|(_, b)| b)
+    let mut bases: Vec<simplify::Base> = cleaned
+        .components
+        .par_iter()
+        .enumerate()
+        .map(|(c, component)| simplify::simplify_part(component, goal(c, level)))
         .collect();
     if options.level.is_none() {
         // A part that could not come down to its goal (a small separate
@@ -495,7 +485,16 @@ fn remesh_charts(
             let coarse: Vec<usize> = (0..bases.len())
                 .filter(|&c| goal(c, level) > counts[c])
                 .collect();
-            for (c, base) in simplify_parts(level, &coarse) {
+            let again: Vec<(usize, simplify::Base)> = coarse
+                .par_iter()
+                .map(|&c| {
+                    let component = &cleaned.components[c];
+                    let noisy = bases[c].noisy_creases;
+                    let base = simplify::simplify_keeping(component, goal(c, level), &[], noisy);
+                    (c, base)
+                })
+                .collect();
+            for (c, base) in again {
                 bases[c] = base;
             }
         }
@@ -544,7 +543,8 @@ fn remesh_charts(
                 }
                 // As many base triangles as the first try made: a part that
                 // could not come down to its goal asks for no more.
-                let mut again = simplify::simplify_keeping(component, size, &keep);
+                let mut again =
+                    simplify::simplify_keeping(component, size, &keep, base.noisy_creases);
                 let (d, f) = map(&mut again)?;
                 mark(&mut keep, &f);
                 if f.len() <= folded.len() {
