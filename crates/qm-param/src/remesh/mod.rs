@@ -495,7 +495,12 @@ fn remesh_charts(
                 })
                 .collect();
             for (c, base) in again {
-                bases[c] = base;
+                // A part stuck again far over its goal (the full dragon's
+                // came out at twice it) keeps its first base, which the
+                // level was chosen for.
+                if base.triangles.len() as f64 <= BASE_SLACK * goal(c, level) as f64 {
+                    bases[c] = base;
+                }
             }
         }
     }
