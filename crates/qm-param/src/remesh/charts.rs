@@ -526,13 +526,7 @@ fn feature_edges(mesh: &TriMesh, base: &Base, around: &[Vec<u32>]) -> Lines {
         if b[k] > 1e-9 {
             continue;
         }
-        let tri = base.triangles[f as usize];
-        let (u, w) = (tri[(k + 1) % 3], tri[(k + 2) % 3]);
-        let (key, t) = if u < w {
-            ((u, w), b[(k + 2) % 3])
-        } else {
-            ((w, u), b[(k + 1) % 3])
-        };
+        let (key, t) = along_edge(base.triangles[f as usize], b, k);
         lines
             .entry(key)
             .or_default()
@@ -560,16 +554,23 @@ fn feature_edges(mesh: &TriMesh, base: &Base, around: &[Vec<u32>]) -> Lines {
     lines
 }
 
+/// The base edge of `tri` opposite its corner `k`, as an ordered vertex
+/// pair, and where barycentric point `b` (on that edge) lies along it, from
+/// the pair's first vertex.
+fn along_edge(tri: [u32; 3], b: [f64; 3], k: usize) -> ((u32, u32), f64) {
+    let (u, w) = (tri[(k + 1) % 3], tri[(k + 2) % 3]);
+    if u < w {
+        ((u, w), b[(k + 2) % 3])
+    } else {
+        ((w, u), b[(k + 1) % 3])
+    }
+}
+
 /// A sample on a base edge along a feature line: its point on the line's
 /// input polyline, at the same place along the edge.
 fn on_line(lines: &Lines, tri: [u32; 3], b: [f64; 3]) -> Option<Sampled> {
     let k = (0..3).find(|&k| b[k] <= 1e-12)?;
-    let (u, w) = (tri[(k + 1) % 3], tri[(k + 2) % 3]);
-    let (key, t) = if u < w {
-        ((u, w), b[(k + 2) % 3])
-    } else {
-        ((w, u), b[(k + 1) % 3])
-    };
+    let (key, t) = along_edge(tri, b, k);
     let line = lines.get(&key)?;
     let i = line.partition_point(|p| p.0 <= t).clamp(1, line.len() - 1) - 1;
     let (a, z) = (line[i], line[i + 1]);

@@ -303,19 +303,14 @@ pub fn simplify_part(mesh: &TriMesh, target: usize) -> Base {
 pub fn simplify_keeping(mesh: &TriMesh, target: usize, keep: &[bool], noisy_creases: bool) -> Base {
     // The edge of an equilateral base triangle of the target's mean area.
     let edge = (4.0 * mesh.area() / (3f64.sqrt() * target.max(1) as f64)).sqrt();
-    let turn = if noisy_creases {
-        NOISE_TURN_DEGREES
-    } else {
-        180.0
-    };
-    let mut s = Simplifier::new(mesh, MIN_CREASE_LENGTH * edge, turn);
+    let mut s = Simplifier::new(mesh, MIN_CREASE_LENGTH * edge, noisy_creases);
     s.keep = keep;
     s.run(target.max(1));
     s.finish()
 }
 
 impl<'a> Simplifier<'a> {
-    fn new(mesh: &'a TriMesh, min_crease: f64, turn: f64) -> Self {
+    fn new(mesh: &'a TriMesh, min_crease: f64, noisy_creases: bool) -> Self {
         let n = mesh.positions.len();
         let mut vfaces = vec![Vec::new(); n];
         for (f, t) in mesh.triangles.iter().enumerate() {
@@ -392,21 +387,21 @@ impl<'a> Simplifier<'a> {
             feature: Vec::new(),
             keep: &[],
             min_quality: MIN_QUALITY,
-            noisy_creases: turn < 180.0,
+            noisy_creases,
         };
-        s.prune_creases(&edge_faces, min_crease, turn);
+        s.prune_creases(&edge_faces, min_crease);
         s.feature = s.crease_degree.iter().map(|&d| d > 0).collect();
         s
     }
 
-    /// Drops short crease chains (keeping boundaries), a chain ending
-    /// where it turns by more than `turn` degrees, then counts each
-    /// vertex's feature edges and adds the feature lines' quadrics.
+    /// Drops short crease chains (keeping boundaries; with noisy creases,
+    /// a chain ends where it turns by more than [`NOISE_TURN_DEGREES`]),
+    /// then counts each vertex's feature edges and adds the feature lines'
+    /// quadrics.
     fn prune_creases(
         &mut self,
         edge_faces: &std::collections::HashMap<u64, Vec<u32>>,
         min_length: f64,
-        turn: f64,
     ) {
         let n = self.positions.len();
         let ends = |key: u64| ((key >> 32) as u32, key as u32);
@@ -423,11 +418,12 @@ impl<'a> Simplifier<'a> {
             adjacency.entry(a).or_default().push(b);
             adjacency.entry(b).or_default().push(a);
         }
-        // Interior crease vertices where the line turns sharply.
-        let cos_turn = turn.to_radians().cos();
+        // Interior crease vertices where a noisy line turns sharply.
+        let cos_turn = NOISE_TURN_DEGREES.to_radians().cos();
         let interior = |a: u32, b: u32| edge_faces[&edge_key(a, b)].len() == 2;
         let turned: HashSet<u32> = adjacency
             .iter()
+            .filter(|_| self.noisy_creases)
             .filter(|&(&at, ws)| {
                 let &[a, b] = ws.as_slice() else {
                     return false;
