@@ -37,6 +37,7 @@ use qm_lift::glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::trimesh::closest_on_triangle;
 use crate::{Error, PolyMesh, Result};
 
 /// Which input of [`distance`] a problem is about.
@@ -208,8 +209,7 @@ impl Surface {
 
     /// The point of the surface closest to `p`.
     pub fn closest(&self, p: DVec3) -> DVec3 {
-        let q = self.mesh.project(to_parry(p - self.origin));
-        DVec3::new(q.x, q.y, q.z) + self.origin
+        self.mesh.project(p - self.origin) + self.origin
     }
 }
 
@@ -220,7 +220,7 @@ impl Surface {
 /// tests a query.
 struct Closest {
     /// The triangles' corners (less the origin), in Morton order.
-    corners: Vec<[Vector; 3]>,
+    corners: Vec<[DVec3; 3]>,
     /// One leaf a run of [`RUN`] triangles of `corners`.
     bvh: Bvh,
 }
@@ -232,7 +232,7 @@ impl Closest {
     fn new(triangles: &Triangles, origin: DVec3) -> Closest {
         let (min, max) = (triangles.min - origin, triangles.max - origin);
         let scale = ((1u64 << 21) - 1) as f64 / (max - min).max_element().max(f64::MIN_POSITIVE);
-        let mut keyed: Vec<(u64, [Vector; 3])> = triangles
+        let mut keyed: Vec<(u64, [DVec3; 3])> = triangles
             .triangles
             .par_iter()
             .map(|t| {
@@ -241,35 +241,38 @@ impl Closest {
                 let cell = ((centroid - min) * scale).max(DVec3::ZERO);
                 let key =
                     morton(cell.x as u64) | morton(cell.y as u64) << 1 | morton(cell.z as u64) << 2;
-                (key, corners.map(to_parry))
+                (key, corners)
             })
             .collect();
         keyed.par_sort_unstable_by_key(|&(key, _)| key);
-        let corners: Vec<[Vector; 3]> = keyed.into_iter().map(|(_, c)| c).collect();
+        let corners: Vec<[DVec3; 3]> = keyed.into_iter().map(|(_, c)| c).collect();
         let leaves: Vec<Aabb> = corners
             .par_chunks(RUN)
-            .map(|run| Aabb::from_points(run.iter().flatten().copied()))
+            .map(|run| Aabb::from_points(run.iter().flatten().map(|&c| to_parry(c))))
             .collect();
         let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves);
         Closest { corners, bvh }
     }
 
     /// The point of the triangles closest to `p`.
-    fn project(&self, p: Vector) -> Vector {
+    fn project(&self, p: DVec3) -> DVec3 {
         // Best first by squared distances, to the leaves' boxes and then to
         // their triangles.
+        let query = to_parry(p);
         let found = self.bvh.find_best(
             f64::MAX,
             |node, _| {
-                let outside = (node.mins() - p).max(p - node.maxs()).max(Vector::ZERO);
+                let outside = (node.mins() - query)
+                    .max(query - node.maxs())
+                    .max(Vector::ZERO);
                 outside.length_squared()
             },
             |leaf, _| {
                 let start = leaf as usize * RUN;
                 let run = &self.corners[start..(start + RUN).min(self.corners.len())];
                 run.iter()
-                    .map(|&[a, b, c]| {
-                        let q = closest_on_triangle(p, a, b, c);
+                    .map(|&corners| {
+                        let (q, _) = closest_on_triangle(p, corners);
                         ((q - p).length_squared(), q)
                     })
                     .min_by(|x, y| x.0.total_cmp(&y.0))
@@ -278,41 +281,6 @@ impl Closest {
         // The BVH is never empty: `Triangles` holds a triangle at least.
         found.map_or(p, |(_, (_, q))| q)
     }
-}
-
-/// The point of triangle `abc` closest to `p`, by the Voronoi regions of
-/// its corners, sides and face (Ericson, *Real-Time Collision Detection*,
-/// 2005, section 5.1.5).
-fn closest_on_triangle(p: Vector, a: Vector, b: Vector, c: Vector) -> Vector {
-    let (ab, ac, ap) = (b - a, c - a, p - a);
-    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return a;
-    }
-    let bp = p - b;
-    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
-    if d3 >= 0.0 && d4 <= d3 {
-        return b;
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return a + ab * (d1 / (d1 - d3));
-    }
-    let cp = p - c;
-    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
-    if d6 >= 0.0 && d5 <= d6 {
-        return c;
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return a + ac * (d2 / (d2 - d6));
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
-        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-    }
-    let denom = 1.0 / (va + vb + vc);
-    a + ab * (vb * denom) + ac * (vc * denom)
 }
 
 /// The bits of `x` (21 of them) spread to every third bit.
@@ -439,9 +407,7 @@ fn one_sided(from: &Triangles, to: &Closest, origin: DVec3, options: &DistanceOp
                 let s = rng.next_f64().sqrt();
                 let u = rng.next_f64();
                 let point = p * (1.0 - s) + q * (s * (1.0 - u)) + r * (s * u);
-                let query = to_parry(point);
-                let projected = to.project(query);
-                partial.add((projected - query).length());
+                partial.add((to.project(point) - point).length());
             }
             partial
         })
@@ -537,45 +503,19 @@ mod tests {
         let mut rng = SplitMix64::new(7);
         for _ in 0..2000 {
             let p = DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 4.0 - 2.0;
-            let q = to_parry(p - origin);
+            let q = p - origin;
             let found = (closest.project(q) - q).length();
             let every = triangles
                 .triangles
                 .iter()
                 .map(|t| {
-                    let [a, b, c] = t.map(|i| to_parry(mesh.positions[i as usize] - origin));
-                    (closest_on_triangle(q, a, b, c) - q).length()
+                    let corners = t.map(|i| mesh.positions[i as usize] - origin);
+                    (closest_on_triangle(q, corners).0 - q).length()
                 })
                 .fold(f64::INFINITY, f64::min);
             assert!(
                 (found - every).abs() <= 1e-12,
                 "{found} against {every} at {p}"
-            );
-        }
-    }
-
-    /// The closest point of a triangle in each of its seven regions.
-    #[test]
-    fn closest_on_a_triangle_by_region() {
-        let (a, b, c) = (
-            Vector::new(0.0, 0.0, 0.0),
-            Vector::new(2.0, 0.0, 0.0),
-            Vector::new(0.0, 2.0, 0.0),
-        );
-        let cases = [
-            ((-1.0, -1.0, 3.0), (0.0, 0.0, 0.0)),
-            ((3.0, -1.0, 1.0), (2.0, 0.0, 0.0)),
-            ((-1.0, 3.0, -1.0), (0.0, 2.0, 0.0)),
-            ((1.0, -1.0, 0.5), (1.0, 0.0, 0.0)),
-            ((-1.0, 1.0, 0.5), (0.0, 1.0, 0.0)),
-            ((2.0, 2.0, 0.0), (1.0, 1.0, 0.0)),
-            ((0.5, 0.5, -4.0), (0.5, 0.5, 0.0)),
-        ];
-        for ((x, y, z), (ex, ey, ez)) in cases {
-            let q = closest_on_triangle(Vector::new(x, y, z), a, b, c);
-            assert!(
-                (q - Vector::new(ex, ey, ez)).length() < 1e-12,
-                "{q:?} for {x} {y} {z}"
             );
         }
     }

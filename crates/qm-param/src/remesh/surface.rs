@@ -43,6 +43,7 @@ use parry3d_f64::query::{PointQueryWithLocation, Ray, RayCast};
 use parry3d_f64::shape::TriMesh as ParryMesh;
 use qm_lift::glam::DVec3;
 
+use crate::trimesh::{Feature, closest_on_triangle};
 use crate::{Error, RemeshFailure, Result, TriMesh};
 
 /// Longest walk (a walk that long ends where it is).
@@ -91,15 +92,6 @@ impl Plane {
         let (s, u) = (i00 * d1 + i01 * d2, i01 * d1 + i11 * d2);
         (s > 0.0 && u > 0.0 && s + u < 1.0).then(|| self.a + self.ab * s + self.ac * u)
     }
-}
-
-/// Where the closest point of a triangle lies.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Feature {
-    Inside,
-    /// On the edge opposite this corner.
-    Edge(usize),
-    Corner(usize),
 }
 
 /// The input surface, ready for rays and closest points.
@@ -483,41 +475,10 @@ impl Surface {
         if let Some(q) = plane.inner(p - plane.a) {
             return (q, Feature::Inside);
         }
-        let [a, b, c] = self.triangles[t as usize].map(|v| self.points[v as usize]);
-        let (ab, ac, ap) = (b - a, c - a, p - a);
-        let (d1, d2) = (ab.dot(ap), ac.dot(ap));
-        if d1 <= 0.0 && d2 <= 0.0 {
-            return (a, Feature::Corner(0));
-        }
-        let bp = p - b;
-        let (d3, d4) = (ab.dot(bp), ac.dot(bp));
-        if d3 >= 0.0 && d4 <= d3 {
-            return (b, Feature::Corner(1));
-        }
-        let vc = d1 * d4 - d3 * d2;
-        if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-            return (a + ab * (d1 / (d1 - d3)), Feature::Edge(2));
-        }
-        let cp = p - c;
-        let (d5, d6) = (ab.dot(cp), ac.dot(cp));
-        if d6 >= 0.0 && d5 <= d6 {
-            return (c, Feature::Corner(2));
-        }
-        let vb = d5 * d2 - d1 * d6;
-        if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-            return (a + ac * (d2 / (d2 - d6)), Feature::Edge(1));
-        }
-        let va = d3 * d6 - d5 * d4;
-        if va <= 0.0 && d4 >= d3 && d5 >= d6 {
-            let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-            return (b + (c - b) * w, Feature::Edge(0));
-        }
-        let sum = va + vb + vc;
-        if sum <= 0.0 {
-            // Degenerate: a corner is as good as any point.
-            return (a, Feature::Corner(0));
-        }
-        (a + ab * (vb / sum) + ac * (vc / sum), Feature::Inside)
+        closest_on_triangle(
+            p,
+            self.triangles[t as usize].map(|v| self.points[v as usize]),
+        )
     }
 }
 
