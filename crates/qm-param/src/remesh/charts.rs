@@ -113,6 +113,10 @@ struct Chart {
     outer: Drawn,
 }
 
+/// A lookup in [`Drawn`]: the smallest barycentric coordinate (non-negative
+/// inside), the input triangle and the coordinates.
+type Near = (f64, u32, [f64; 3]);
+
 /// Drawn input triangles (index and 2D corners) and their buckets.
 struct Drawn {
     triangles: Vec<(u32, [DVec2; 3])>,
@@ -127,8 +131,18 @@ impl Drawn {
 
     /// The triangle nearest to holding `x`: its smallest barycentric
     /// coordinate (non-negative inside), its index and its coordinates.
-    fn nearest(&self, x: DVec2) -> Option<(f64, u32, [f64; 3])> {
-        let mut best: Option<(f64, u32, [f64; 3])> = None;
+    ///
+    /// Where several hold `x`, the smallest is taken. Drawn triangles
+    /// overlap where an input triangle reaches across base triangles: it is
+    /// drawn straight between its corners' places, while the map it stands
+    /// for bends at the base edges, and near a base vertex it can cover the
+    /// small triangles there. On snowden's glasses, samples taken on such a
+    /// triangle lay on the far side of the frame: the largest 0.1% of the
+    /// remesh's quads held 96% of its error.
+    fn nearest(&self, x: DVec2) -> Option<Near> {
+        let mut best: Option<Near> = None;
+        // With its drawn area.
+        let mut smallest: Option<(f64, Near)> = None;
         for reach in [0usize, 1, 3] {
             for &k in self.grid.near(x, reach) {
                 let (t, q) = &self.triangles[k as usize];
@@ -138,8 +152,14 @@ impl Drawn {
                     best = Some((worst, *t, l));
                 }
                 if worst >= -1e-12 {
-                    return best;
+                    let area = (q[1] - q[0]).perp_dot(q[2] - q[0]).abs();
+                    if smallest.is_none_or(|s| area < s.0) {
+                        smallest = Some((area, (worst, *t, l)));
+                    }
                 }
+            }
+            if let Some((_, hit)) = smallest {
+                return Some(hit);
             }
         }
         best
@@ -227,6 +247,10 @@ fn barycentric(q: &[DVec2; 3], x: DVec2) -> [f64; 3] {
 /// whether it was inside (not the nearest outside).
 #[derive(Clone, Copy)]
 struct Hit {
+    /// The smallest barycentric coordinate before clamping.
+    worst: f64,
+    /// On one of the star's own triangles, not an outer one.
+    own: bool,
     triangle: u32,
     bary: [f64; 3],
     inside: bool,
@@ -235,11 +259,13 @@ struct Hit {
 impl Chart {
     fn locate(&self, x: DVec2) -> Option<Hit> {
         let mut best = self.drawn.nearest(x);
+        let mut own = true;
         if best.is_none_or(|b| b.0 < -1e-9)
             && let Some(outer) = self.outer.nearest(x)
             && best.is_none_or(|b| outer.0 > b.0)
         {
             best = Some(outer);
+            own = false;
         }
         if best.is_none() {
             for (t, q) in &self.drawn.triangles {
@@ -261,6 +287,8 @@ impl Chart {
             }
         }
         Some(Hit {
+            worst,
+            own,
             triangle,
             bary: l,
             inside: worst >= -1e-9,
@@ -397,19 +425,27 @@ pub fn resample(
                         return Some(on);
                     }
                     let x = place[0] * b[0] + place[1] * b[1] + place[2] * b[2];
+                    // A point on none of this chart's own triangles (only
+                    // on an outer one, or nearest to one) is looked up in
+                    // the charts of the triangle's other corners too, and
+                    // the best lookup taken: inside first, then on an own
+                    // triangle, then nearest.
+                    let good = |h: &Hit| h.inside && h.own;
                     let mut hit = chart.locate(x);
-                    if hit.is_none() {
-                        for o in base.triangles[t as usize] {
-                            if o == a || hit.is_some() {
-                                continue;
-                            }
-                            let other = others.entry(o).or_insert_with(|| {
-                                build_chart(o, &star[&o], mesh, base, &in_face, vertex_triangles)
-                                    .chart
-                            });
-                            if let Some(p) = other.star.get(&t) {
-                                hit = other.locate(p[0] * b[0] + p[1] * b[1] + p[2] * b[2]);
-                            }
+                    for o in base.triangles[t as usize] {
+                        if o == a || hit.as_ref().is_some_and(good) {
+                            continue;
+                        }
+                        let other = others.entry(o).or_insert_with(|| {
+                            build_chart(o, &star[&o], mesh, base, &in_face, vertex_triangles).chart
+                        });
+                        if let Some(p) = other.star.get(&t)
+                            && let Some(h) = other.locate(p[0] * b[0] + p[1] * b[1] + p[2] * b[2])
+                            && hit.is_none_or(|g| {
+                                (h.inside, h.own, h.worst) > (g.inside, g.own, g.worst)
+                            })
+                        {
+                            hit = Some(h);
                         }
                     }
                     let hit = hit?;
@@ -1570,9 +1606,27 @@ fn build_chart(
 #[cfg(test)]
 mod tests {
     use super::super::{BaseDomain, RemeshOptions, remesh};
+    use super::Drawn;
     use crate::clean::topology;
     use crate::{Error, PolyMesh, RemeshFailure, TriMesh};
-    use qm_lift::glam::DVec3;
+    use qm_lift::glam::{DVec2, DVec3};
+
+    /// Where drawn triangles overlap, a point is looked up on the smallest
+    /// that holds it, wherever it comes in the list; outside all, on the
+    /// nearest.
+    #[test]
+    fn overlapping_drawn_triangles_give_the_smallest() {
+        let v = DVec2::new;
+        let big = [v(-10.0, -10.0), v(10.0, -10.0), v(0.0, 10.0)];
+        let small = [v(-0.5, -0.5), v(0.5, -0.5), v(0.0, 0.5)];
+        let middle = [v(-2.0, -2.0), v(2.0, -2.0), v(0.0, 2.0)];
+        let drawn = Drawn::new(vec![(7, big), (8, middle), (9, small)]);
+        assert_eq!(drawn.nearest(v(0.0, 0.0)).map(|h| h.1), Some(9));
+        assert_eq!(drawn.nearest(v(0.0, 1.0)).map(|h| h.1), Some(8));
+        assert_eq!(drawn.nearest(v(0.0, 5.0)).map(|h| h.1), Some(7));
+        let (worst, t, _) = drawn.nearest(v(0.0, 11.0)).unwrap();
+        assert!(worst < 0.0 && t == 7);
+    }
 
     /// A torus of `m x n` vertices, radii 1 and 0.35, a little bumpy.
     fn torus(m: usize, n: usize) -> PolyMesh {
