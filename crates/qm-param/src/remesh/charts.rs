@@ -1881,23 +1881,25 @@ mod tests {
             .count()
     }
 
-    /// Relaxing the stretch weighs every chart that draws a triangle: on a
-    /// rippled sphere with three tall bumps it leaves no more pleats than
-    /// it found. Weighing only the chart that draws each best, it made 22
-    /// out of 1.
+    /// Relaxing the stretch weighs every chart that draws a triangle: on
+    /// rippled spheres with three bumps it leaves no more pleats than it
+    /// found. Weighing only the chart that draws each best, they went from
+    /// 4 to 7 and from 48 to 55.
     #[test]
     fn relaxing_the_stretch_adds_no_pleats() {
-        let mut sphere = super::super::tests::sphere(48);
-        let bumps = [DVec3::Z, DVec3::X, DVec3::new(0.0, -0.6, -0.8)];
-        for p in &mut sphere.positions {
-            let height: f64 = bumps
-                .iter()
-                .map(|b| (-p.distance_squared(*b) / 0.02).exp())
-                .sum();
-            *p *= 1.0 + 3.0 * height + 0.02 * (13.0 * p.x).sin() * (11.0 * p.y).cos();
+        for (tall, wide, n, ripple) in [(0.8, 0.1, 40, 0.02), (2.0, 0.03, 48, 0.05)] {
+            let mut sphere = super::super::tests::sphere(n);
+            let bumps = [DVec3::Z, DVec3::X, DVec3::new(0.0, -0.6, -0.8)];
+            for p in &mut sphere.positions {
+                let height: f64 = bumps
+                    .iter()
+                    .map(|b| (-p.distance_squared(*b) / wide).exp())
+                    .sum();
+                *p *= 1.0 + tall * height + ripple * (13.0 * p.x).sin() * (11.0 * p.y).cos();
+            }
+            let (before, after, _) = relaxed(&sphere, pleats);
+            assert!(after <= before, "pleats {before} -> {after}");
         }
-        let (before, after, _) = relaxed(&sphere, pleats);
-        assert!(after <= before, "pleats {before} -> {after}");
     }
 
     /// A patch whose border is ragged (a notch every few edges): the
