@@ -137,8 +137,8 @@ impl Drawn {
     /// drawn straight between its corners' places, while the map it stands
     /// for bends at the base edges, and near a base vertex it can cover the
     /// small triangles there. On snowden's glasses, samples taken on such a
-    /// triangle lay on the far side of the frame: the largest 0.1% of the
-    /// remesh's quads held 96% of its error.
+    /// triangle lay on the far side of the frame, and the 0.1% of the
+    /// remesh's quads with the most error held 96% of it.
     fn nearest(&self, x: DVec2) -> Option<Near> {
         let mut best: Option<Near> = None;
         // With its drawn area.
@@ -411,9 +411,8 @@ pub fn resample(
             let folded = chart.orientations(mesh, &domain.held);
             let chart = chart.chart;
             let mut out = Vec::new();
-            // Where this chart draws nothing (a star whose input triangles
-            // all reach out of it), the charts of the triangle's other
-            // corners, made when first needed.
+            // The charts of the triangles' other corners, for the points
+            // this chart holds on no own triangle, made when first needed.
             let mut others: HashMap<u32, Chart> = HashMap::new();
             for &q in &quads_at[&a] {
                 let (t, c) = quads.owner[q];
@@ -1263,8 +1262,7 @@ impl<'a> Knots<'a> {
     /// Whether every chart that draws `t` draws it turned over, as sampling
     /// counts a fold (triangles held between feature lines aside).
     fn folded(&self, base: &Base, t: u32) -> bool {
-        let tri = self.mesh.triangles[t as usize];
-        if tri.iter().all(|&v| self.domain.held[v as usize]) {
+        if self.held(t) {
             return false;
         }
         let mut drawn = false;
@@ -1277,53 +1275,74 @@ impl<'a> Knots<'a> {
         drawn
     }
 
-    /// Triangle `t`'s energy: its least distortion over the charts that
-    /// draw it, plus the penalty if it is folded (or drawn in none).
+    /// Triangle `t`'s energy: [`Self::stretch_energy`] when relaxing the
+    /// stretch, else [`Self::untangle_energy`].
     fn energy(&self, base: &Base, t: u32) -> f64 {
+        match &self.stretch {
+            Some((scale, area)) => self.stretch_energy(base, t, *scale, area[t as usize]),
+            None => self.untangle_energy(base, t),
+        }
+    }
+
+    /// Whether all of triangle `t`'s corners lie on feature lines, where
+    /// its orientation does not count.
+    fn held(&self, t: u32) -> bool {
         let tri = self.mesh.triangles[t as usize];
-        let held = tri.iter().all(|&v| self.domain.held[v as usize]);
+        tri.iter().all(|&v| self.domain.held[v as usize])
+    }
+
+    /// Triangle `t`'s least distortion over the charts that draw it, plus
+    /// the penalty if it is folded (or drawn in none).
+    fn untangle_energy(&self, base: &Base, t: u32) -> f64 {
         let mut best = f64::INFINITY;
-        // The stretch in the chart that draws it worst, and whether one
-        // draws it turned over.
-        let (mut worst, mut pleat) = (0.0f64, false);
-        let mut right = held;
+        let mut right = self.held(t);
         for [p, q, r] in self.drawings(base, t) {
-            let this_right = drawn_right(p, q, r);
-            right |= this_right;
-            pleat |= !this_right;
+            right |= drawn_right(p, q, r);
             let j = DMat2::from_cols(q - p, r - p) * self.shapes[t as usize];
             let det = j.determinant();
             let norm = j.x_axis.length_squared() + j.y_axis.length_squared();
-            if let Some((scale, area)) = &self.stretch {
-                // Symmetric Dirichlet, against the part's typical scale.
-                let (det, norm) = (det / scale, norm / scale);
-                if det > 0.0 {
-                    worst = worst.max(area[t as usize] * norm * (1.0 + 1.0 / (det * det)));
-                }
-                continue;
-            }
             let h = 0.5 * (det + (det * det + 4.0 * UNTANGLE_DELTA * UNTANGLE_DELTA).sqrt());
             if h > 0.0 {
                 best = best.min(norm / h);
             }
         }
-        if let Some((_, area)) = &self.stretch {
-            // Relaxing the stretch never folds a triangle (nor lays one
-            // flat in every chart).
-            if !right || worst == 0.0 {
-                return f64::INFINITY;
-            }
-            let penalty = if pleat && !held {
-                PLEAT_PENALTY * area[t as usize]
-            } else {
-                0.0
-            };
-            return worst + penalty;
-        }
         if !best.is_finite() {
             return 2.0 * FOLD_PENALTY;
         }
         best + if right { 0.0 } else { self.penalty }
+    }
+
+    /// Triangle `t`'s symmetric Dirichlet energy (input area `area`,
+    /// against the part's typical `scale`) in the chart that draws it
+    /// worst, plus [`PLEAT_PENALTY`] if a chart draws it turned over.
+    /// Infinite if every chart does, so relaxing never folds a triangle (nor
+    /// lays one flat in every chart).
+    fn stretch_energy(&self, base: &Base, t: u32, scale: f64, area: f64) -> f64 {
+        let held = self.held(t);
+        let (mut right, mut pleat) = (held, false);
+        let mut worst: Option<f64> = None;
+        for [p, q, r] in self.drawings(base, t) {
+            let this_right = drawn_right(p, q, r);
+            right |= this_right;
+            pleat |= !this_right;
+            let j = DMat2::from_cols(q - p, r - p) * self.shapes[t as usize];
+            let det = j.determinant() / scale;
+            let norm = (j.x_axis.length_squared() + j.y_axis.length_squared()) / scale;
+            if det > 0.0 {
+                let e = area * norm * (1.0 + 1.0 / (det * det));
+                worst = Some(worst.map_or(e, |w| w.max(e)));
+            }
+        }
+        match worst {
+            Some(w) if right => {
+                w + if pleat && !held {
+                    PLEAT_PENALTY * area
+                } else {
+                    0.0
+                }
+            }
+            _ => f64::INFINITY,
+        }
     }
 
     fn ring_energy(&self, base: &Base, p: u32) -> f64 {
