@@ -20,6 +20,7 @@
 //! vertex moves down the map's stretch (`relax_stretch`), never folding a
 //! triangle, so that sampling density follows the surface.
 
+use std::cell::Cell;
 use std::collections::HashMap;
 
 use qm_lift::glam::{DMat2, DVec2, DVec3};
@@ -1136,6 +1137,15 @@ const FOLD_PENALTY: f64 = 1e4;
 /// fell to 84.9 (docs/remesher-next.md).
 const PLEAT_PENALTY: f64 = 1000.0;
 
+/// How many times its last step a vertex's line search starts from when
+/// relaxing the stretch ([`Knots::relax`]). From half the ring's size each
+/// time, as before, the bunny's relaxation weighed 4.1M ring energies, most
+/// after 5 to 8 halvings; from twice the last step, 2.2M, at the same PSNR
+/// within the remesh's chaos (the mean over the 15 inputs through
+/// charts rose by 0.06 dB). From the last step itself, 1.7M, but a step
+/// that can only shrink sampled the bunny 0.3 dB worse.
+const STEP_GROWTH: f64 = 2.0;
+
 /// The regularization of the determinant in [`untangle_knots`]' energy,
 /// relative to the input triangle's own area.
 const UNTANGLE_DELTA: f64 = 1e-2;
@@ -1153,6 +1163,8 @@ struct Knots<'a> {
     /// the triangle's area) against this scale of the map's determinant,
     /// not the conformal distortion.
     stretch: Option<(f64, Vec<f64>)>,
+    /// Per input vertex: the step its last move took, 0 before any.
+    steps: Vec<Cell<f64>>,
 }
 
 impl<'a> Knots<'a> {
@@ -1183,6 +1195,7 @@ impl<'a> Knots<'a> {
             shapes,
             penalty: FOLD_PENALTY,
             stretch: None,
+            steps: vec![Cell::new(0.0); mesh.positions.len()],
         }
     }
 
@@ -1433,7 +1446,14 @@ impl<'a> Knots<'a> {
                 break;
             }
             let d = -g.normalize();
-            let mut step = 0.5 * size;
+            // Relaxing the stretch starts from twice the vertex's last
+            // step: the map moves little from sweep to sweep.
+            let remembered = self.steps[p as usize].get();
+            let mut step = if self.stretch.is_some() && remembered > 0.0 {
+                (STEP_GROWTH * remembered).min(0.5 * size)
+            } else {
+                0.5 * size
+            };
             let mut found = None;
             while step > 1e-4 * size {
                 let y = x + d * step;
@@ -1441,6 +1461,7 @@ impl<'a> Knots<'a> {
                     && ey < e
                 {
                     found = Some((y, ey, base.location[p as usize]));
+                    self.steps[p as usize].set(step);
                     break;
                 }
                 step *= 0.5;

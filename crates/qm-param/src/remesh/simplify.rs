@@ -677,6 +677,13 @@ impl<'a> Simplifier<'a> {
         out
     }
 
+    /// Whether `u` and `w` share a live triangle (an edge).
+    fn adjacent(&self, u: u32, w: u32) -> bool {
+        self.vfaces[u as usize]
+            .iter()
+            .any(|&f| self.faces[f as usize].contains(&w))
+    }
+
     /// The fan from ring position `ui`: per ring edge `i` not at `u`,
     /// `(i, [u, w_i, w_i+1])`.
     fn fan(ring: &Ring, ui: usize) -> Vec<(usize, [usize; 3])> {
@@ -722,9 +729,14 @@ impl<'a> Simplifier<'a> {
             return None;
         }
         let plain = self.flatten(v, &ring, None)?;
-        let crease_ends: Vec<usize> = (0..ring.verts.len())
-            .filter(|&i| self.creases.contains(&edge_key(v, ring.verts[i])))
-            .collect();
+        // Most vertices lie on no feature line: no look-ups for them.
+        let crease_ends: Vec<usize> = if degree == 0 {
+            Vec::new()
+        } else {
+            (0..ring.verts.len())
+                .filter(|&i| self.creases.contains(&edge_key(v, ring.verts[i])))
+                .collect()
+        };
         let candidates: Vec<usize> = if degree == 2 {
             crease_ends.clone()
         } else {
@@ -776,10 +788,9 @@ impl<'a> Simplifier<'a> {
                 .map(|&f| self.faces[f as usize])
                 .filter(|t| t.contains(&u))
                 .count();
-            let u_neighbours = self.neighbours(u);
             let common = v_neighbours
                 .iter()
-                .filter(|w| u_neighbours.binary_search(w).is_ok())
+                .filter(|&&w| w != u && self.adjacent(u, w))
                 .count();
             if common != opposite {
                 continue;
