@@ -455,9 +455,6 @@ pub fn resample(
                         + mesh.positions[tri[2] as usize] * hit.bary[2];
                     Some((p, hit.triangle, hit.inside))
                 };
-                let grid: Vec<Option<Sampled>> = (0..side * side)
-                    .map(|g| sample((g % side) as f64 / n as f64, (g / side) as f64 / n as f64))
-                    .collect();
                 let fine: Vec<Option<Sampled>> = if fine_wanted {
                     (0..fine_side * fine_side)
                         .map(|g| {
@@ -470,6 +467,18 @@ pub fn resample(
                 } else {
                     Vec::new()
                 };
+                // The samples are the fine nodes of even row and column
+                // (`2i / 2n` rounds as `i / n` does), else looked up.
+                let grid: Vec<Option<Sampled>> = (0..side * side)
+                    .map(|g| {
+                        let (i, j) = (g % side, g / side);
+                        if fine_wanted {
+                            fine[2 * j * fine_side + 2 * i]
+                        } else {
+                            sample(i as f64 / n as f64, j as f64 / n as f64)
+                        }
+                    })
+                    .collect();
                 out.push((q, grid, fine));
             }
             (out, folded)
