@@ -417,7 +417,7 @@ fn report_remesh(input: &Path, r: &qm::RemeshReport) {
         );
     }
     if let Some(why) = &r.fallback {
-        eprintln!("  base domain: charts, since {why}");
+        eprintln!("  base domain: {}, since {why}", r.domain);
     }
     if let Some(psnr) = r.psnr {
         eprintln!("  remesh measured at {psnr:.1} dB against the input");
