@@ -3,7 +3,7 @@
 //! | bytes | content |
 //! |---|---|
 //! | 4 | magic `89 51 4D 0A` (`\x89QM\n`) |
-//! | 1 | format version ([`VERSION`], 1) |
+//! | 1 | format version ([`VERSION`], 2; version 1 is read too) |
 //! | 2 | header length `H`, little endian |
 //! | `H` | [`Header`]'s fields, then its [`Header::holds`] (byte by byte: `docs/format.md`) |
 //! | 4 | CRC-32 of everything above |
@@ -23,9 +23,13 @@ use crate::{Error, Result, basecode};
 /// Magic bytes at the start of every `.qm` file.
 pub const MAGIC: [u8; 4] = [0x89, b'Q', b'M', b'\n'];
 
-/// The format version this build writes and reads (the first published
-/// one; `docs/format.md` specifies it).
-pub const VERSION: u8 = 1;
+/// The format version this build writes; it reads this one and
+/// [`OLDEST`] (`docs/format.md` specifies both). Version 2 differs from
+/// version 1 only in how the base section codes its faces (`basecode`).
+pub const VERSION: u8 = 2;
+
+/// The oldest format version this build reads: the first published one.
+pub const OLDEST: u8 = 1;
 
 /// Largest [`Header::frames`]: parent-quad normals from level
 /// `MAX_LEVEL + 1` on, that is never.
@@ -211,7 +215,7 @@ pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u
     out.extend_from_slice(&header_bytes);
     out.extend_from_slice(&crc32fast::hash(&out).to_le_bytes());
 
-    let base_bytes = basecode::encode(&base.faces, &base.values);
+    let base_bytes = basecode::encode(&base.faces, &base.values, VERSION);
     out.extend_from_slice(&(base_bytes.len() as u32).to_le_bytes());
     out.extend_from_slice(&base_bytes);
     out.extend_from_slice(&crc32fast::hash(&base_bytes).to_le_bytes());
@@ -330,7 +334,7 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
         return Err(Error::NotQm);
     }
     let version = take(data, 4, 1)?[0];
-    if version != VERSION {
+    if !(OLDEST..=VERSION).contains(&version) {
         return Err(Error::UnsupportedVersion {
             found: version,
             newest: VERSION,
@@ -389,6 +393,7 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
         header.base_faces as usize,
         header.base_vertices as usize,
         low_bits,
+        version,
     )
     .map_err(|problem| Error::Malformed {
         what: format!("base mesh: {problem}"),
