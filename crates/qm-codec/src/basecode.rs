@@ -171,8 +171,12 @@ fn predict(v: usize, faces: &[[u32; 4]], incidence: &Incidence, values: &[[i32; 
 /// its place among them.
 const RECENT: usize = 32;
 
-/// The version 2 face coder's state, the same on both sides.
+/// The face coder's state, the same on both sides: version 1's difference
+/// to the previous face's corner alone, or version 2's new and recent
+/// vertices before it.
 struct FaceModel {
+    /// Version 1: every corner a difference to the previous face's.
+    version1: bool,
     /// Whether a corner is a vertex not used before, per corner.
     new: [Context; 4],
     /// A new vertex as the difference to the last new one, per corner.
@@ -191,8 +195,9 @@ struct FaceModel {
 }
 
 impl FaceModel {
-    fn new(vertices: usize) -> Self {
+    fn new(vertices: usize, version: u8) -> Self {
         FaceModel {
+            version1: version == 1,
             new: [Context::default(); 4],
             new_step: vec![IntModel::new(); 4],
             recent: [Context::default(); 4],
@@ -205,72 +210,90 @@ impl FaceModel {
         }
     }
 
-    fn put(&mut self, w: &mut BitWriter, k: usize, v: u32) {
-        let new = !self.used[v as usize];
-        w.encode(&mut self.new[k], new);
-        if new {
-            self.new_step[k].put(w, v as i64 - self.last_new[k]);
-        } else {
-            let place = self.recents.iter().position(|&u| u == v);
-            w.encode(&mut self.recent[k], place.is_some());
-            match place {
-                Some(i) => {
-                    let mut node = 1;
-                    for d in (0..RECENT.trailing_zeros()).rev() {
-                        let bit = (i >> d) & 1 != 0;
-                        w.encode(&mut self.place[k][node], bit);
-                        node = 2 * node + usize::from(bit);
-                    }
-                }
-                None => self.step[k].put(w, v as i64 - self.previous[k] as i64),
+    fn put(&mut self, w: &mut BitWriter, face: &[u32; 4]) {
+        for (k, &v) in face.iter().enumerate() {
+            if self.version1 {
+                self.step[k].put(w, v as i64 - self.previous[k] as i64);
+                continue;
             }
+            let new = !self.used[v as usize];
+            w.encode(&mut self.new[k], new);
+            let place = if new {
+                self.new_step[k].put(w, v as i64 - self.last_new[k]);
+                None
+            } else {
+                let place = self.recents.iter().position(|&u| u == v);
+                w.encode(&mut self.recent[k], place.is_some());
+                match place {
+                    Some(i) => {
+                        let mut node = 1;
+                        for d in (0..RECENT.trailing_zeros()).rev() {
+                            let bit = (i >> d) & 1 != 0;
+                            w.encode(&mut self.place[k][node], bit);
+                            node = 2 * node + usize::from(bit);
+                        }
+                    }
+                    None => self.step[k].put(w, v as i64 - self.previous[k] as i64),
+                }
+                place
+            };
+            self.used_now(k, v, new, place);
         }
-        self.used_now(k, v, new);
+        self.previous = *face;
     }
 
-    fn get(&mut self, r: &mut BitReader, k: usize) -> Result<u32, String> {
+    /// Face `f`; the error says what is wrong with it.
+    fn get(&mut self, r: &mut BitReader, f: usize) -> Result<[u32; 4], String> {
         let bit = |r: &mut BitReader, c: &mut Context| {
             r.decode(c)
                 .map_err(|_| "it ends before its last face".to_string())
         };
         let vertices = self.used.len() as i64;
-        let new = bit(r, &mut self.new[k])?;
-        let v = if new {
-            self.last_new[k] + self.new_step[k].get(r)?
-        } else if bit(r, &mut self.recent[k])? {
-            let mut node = 1;
-            for _ in 0..RECENT.trailing_zeros() {
-                node = 2 * node + usize::from(bit(r, &mut self.place[k][node])?);
-            }
-            let i = node - RECENT;
-            match self.recents.get(i) {
-                Some(&u) => u as i64,
-                None => {
-                    return Err(format!(
-                        "a face names recent vertex {i} of {}",
-                        self.recents.len()
-                    ));
+        let mut face = [0u32; 4];
+        for (k, corner) in face.iter_mut().enumerate() {
+            let (mut new, mut place) = (false, None);
+            let v = if self.version1 {
+                self.previous[k] as i64 + self.step[k].get(r)?
+            } else if bit(r, &mut self.new[k])? {
+                new = true;
+                self.last_new[k] + self.new_step[k].get(r)?
+            } else if bit(r, &mut self.recent[k])? {
+                let mut node = 1;
+                for _ in 0..RECENT.trailing_zeros() {
+                    node = 2 * node + usize::from(bit(r, &mut self.place[k][node])?);
                 }
+                let i = node - RECENT;
+                let Some(&u) = self.recents.get(i) else {
+                    let known = self.recents.len();
+                    return Err(format!("face {f} names recent vertex {i} of {known}"));
+                };
+                place = Some(i);
+                u as i64
+            } else {
+                self.previous[k] as i64 + self.step[k].get(r)?
+            };
+            if !(0..vertices).contains(&v) {
+                return Err(format!(
+                    "face {f} names vertex {v} of {vertices} base vertices"
+                ));
             }
-        } else {
-            self.previous[k] as i64 + self.step[k].get(r)?
-        };
-        if !(0..vertices).contains(&v) {
-            return Err(format!(
-                "a face names vertex {v} of {vertices} base vertices"
-            ));
+            *corner = v as u32;
+            if !self.version1 {
+                self.used_now(k, *corner, new, place);
+            }
         }
-        self.used_now(k, v as u32, new);
-        Ok(v as u32)
+        self.previous = face;
+        Ok(face)
     }
 
-    /// After corner `k` of a face named `v`.
-    fn used_now(&mut self, k: usize, v: u32, new: bool) {
+    /// After corner `k` of a face named `v`, new or at `place` among the
+    /// recent vertices (or, used but not recent, at neither).
+    fn used_now(&mut self, k: usize, v: u32, new: bool, place: Option<usize>) {
         self.used[v as usize] = true;
         if new {
             self.last_new[k] = v as i64;
         }
-        if let Some(i) = self.recents.iter().position(|&u| u == v) {
+        if let Some(i) = place {
             self.recents.remove(i);
         }
         self.recents.insert(0, v);
@@ -282,23 +305,9 @@ impl FaceModel {
 /// version `version` (1 or 2).
 pub(crate) fn encode(faces: &[[u32; 4]], values: &[[i32; 3]], version: u8) -> Vec<u8> {
     let mut w = BitWriter::new();
-    if version == 1 {
-        let mut corner = vec![IntModel::new(); 4];
-        let mut previous = [0u32; 4];
-        for face in faces {
-            for k in 0..4 {
-                corner[k].put(&mut w, face[k] as i64 - previous[k] as i64);
-            }
-            previous = *face;
-        }
-    } else {
-        let mut model = FaceModel::new(values.len());
-        for face in faces {
-            for (k, &v) in face.iter().enumerate() {
-                model.put(&mut w, k, v);
-            }
-            model.previous = *face;
-        }
+    let mut model = FaceModel::new(values.len(), version);
+    for face in faces {
+        model.put(&mut w, face);
     }
     let incidence = Incidence::new(faces, values.len());
     let mut coord = vec![IntModel::new(); 3];
@@ -345,33 +354,9 @@ pub(crate) fn decode(
     let range = (i32::MIN >> low_bits) as i64..=(i32::MAX >> low_bits) as i64;
     let mut r = BitReader::new(bytes);
     let mut faces = Vec::with_capacity(face_count.min(bytes.len()));
-    if version == 1 {
-        let mut corner = vec![IntModel::new(); 4];
-        let mut previous = [0u32; 4];
-        for f in 0..face_count {
-            let mut face = [0u32; 4];
-            for k in 0..4 {
-                let v = previous[k] as i64 + corner[k].get(&mut r)?;
-                if !(0..vertex_count as i64).contains(&v) {
-                    return Err(format!(
-                        "face {f} names vertex {v} of {vertex_count} base vertices"
-                    ));
-                }
-                face[k] = v as u32;
-            }
-            faces.push(face);
-            previous = face;
-        }
-    } else {
-        let mut model = FaceModel::new(vertex_count);
-        for f in 0..face_count {
-            let mut face = [0u32; 4];
-            for (k, corner) in face.iter_mut().enumerate() {
-                *corner = model.get(&mut r, k).map_err(|e| format!("face {f}: {e}"))?;
-            }
-            faces.push(face);
-            model.previous = face;
-        }
+    let mut model = FaceModel::new(vertex_count, version);
+    for f in 0..face_count {
+        faces.push(model.get(&mut r, f)?);
     }
     let incidence = Incidence::new(&faces, vertex_count);
     let mut coord = vec![IntModel::new(); 3];

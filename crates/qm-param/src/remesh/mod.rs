@@ -393,11 +393,12 @@ fn remesh_auto(
 /// The loops that cutting a part into a disk takes (`2 genus + holes - 1`)
 /// from which [`BaseDomain::Auto`] does not try one square per part: its
 /// cut grows with them, and the map stretches along it without bound. In
-/// the set, every input with a part of 23 loops or more failed
+/// the set, every input with a part of 18 loops or more failed
 /// through one square (snowden 51, holes100 99, the full dragon 109, after
-/// 174 s of trying) or measured 27 dB or more below charts (genus12 23,
-/// dragon_vrip_res2 48.5 dB against 88.9); none that one square won had a
-/// part of more than 6 (the height field's 6 went to charts by 17 dB).
+/// 174 s of trying) or measured far below charts (dragon_vrip_res2 18:
+/// 48.5 against 88.9 dB; genus12 23: 58.9 against 86.4); every input that
+/// one square won has at most 1 (rocker-arm, parts300, the teapot), and
+/// the height field's 6 went to charts by 17 dB (docs/remesher-next.md).
 const MOST_CUT_LOOPS: i64 = 16;
 
 /// Which part needs [`MOST_CUT_LOOPS`] or more, said for the report.
