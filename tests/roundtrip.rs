@@ -214,22 +214,18 @@ fn lossless_on_valence_6_and_two_components() {
 
 /// The published format's golden files: `tests/data/holed_grid.qm` and
 /// `tests/data/cc_dodecahedron.qm` are `qm::codec::compress` of the two
-/// bundled quad meshes with the defaults (`QM_UPDATE_GOLDEN=1` writes them
-/// anew, for a deliberate change of the format). The encoder must still write them byte for byte,
-/// so that a change that keeps coder and decoder in step but changes the
-/// format cannot pass unnoticed; they decode exactly, and so do their cuts.
+/// bundled quad meshes with the defaults, and `split_octahedron.qm` that of
+/// [`qm::lift::synthetic::bumpy_split_octahedron`] at level 4, a base that
+/// version 3 sends as triangles (`QM_UPDATE_GOLDEN=1` writes them anew, for
+/// a deliberate change of the format). The encoder must still write them
+/// byte for byte, so that a change that keeps coder and decoder in step but
+/// changes the format cannot pass unnoticed; they decode exactly, and so do
+/// their cuts.
 #[test]
 fn golden_files_are_written_byte_for_byte() {
-    for name in ["holed_grid", "cc_dodecahedron"] {
-        let model = if name == "holed_grid" {
-            "holed_grid_l4"
-        } else {
-            name
-        };
+    for name in ["holed_grid", "cc_dodecahedron", "split_octahedron"] {
         let file = std::fs::read(asset(&format!("../tests/data/{name}.qm"))).unwrap_or_default();
-        let input = qm::read_mesh(asset(&format!("quad/{model}.obj"))).unwrap();
-        let prepared = qm::detect(&input).unwrap();
-        let new = qm::codec::compress(&prepared.mesh, &EncodeOptions::DEFAULT).unwrap();
+        let new = qm::codec::compress(&golden_input(name), &EncodeOptions::DEFAULT).unwrap();
         if std::env::var_os("QM_UPDATE_GOLDEN").is_some() {
             std::fs::write(asset(&format!("../tests/data/{name}.qm")), &new.bytes).unwrap();
             continue;
@@ -247,26 +243,39 @@ fn golden_files_are_written_byte_for_byte() {
     }
 }
 
-/// Files of format version 1, written by the build before version 2, are
-/// still read: they decode to the same samples as the version 2 files of
-/// the same meshes (the versions differ only in the base section's face
-/// coding), and so do their cuts past the base section.
+/// The mesh of golden file `name`.
+fn golden_input(name: &str) -> qm::lift::SemiRegularMesh {
+    if name == "split_octahedron" {
+        return qm::lift::synthetic::bumpy_split_octahedron(4);
+    }
+    let model = if name == "holed_grid" {
+        "holed_grid_l4"
+    } else {
+        name
+    };
+    let input = qm::read_mesh(asset(&format!("quad/{model}.obj"))).unwrap();
+    qm::detect(&input).unwrap().mesh
+}
+
+/// Files of format versions 1 and 2, written by the builds before versions
+/// 2 and 3, are still read: they decode to the same samples as the current
+/// files of the same meshes (the versions differ only in the base
+/// section's face coding), and so do their cuts past the base section.
 #[test]
-fn version_1_files_are_still_read() {
+fn older_versions_are_still_read() {
     for name in ["holed_grid", "cc_dodecahedron"] {
-        let old = std::fs::read(asset(&format!("../tests/data/{name}.v1.qm"))).unwrap();
         let new = std::fs::read(asset(&format!("../tests/data/{name}.qm"))).unwrap();
-        assert_eq!(
-            (old[4], new[4]),
-            (1, qm::codec::container::VERSION),
-            "{name}"
-        );
-        let decode = |b: &[u8]| qm::codec::decompress(b, &DecodeOptions::default()).unwrap();
-        assert_eq!(decode(&old).values, decode(&new).values, "{name}");
-        // The same stream after base sections of different lengths.
-        let (o, n) = (old.len() - 300, new.len() - 300);
-        assert_eq!(old[o..], new[n..], "{name}");
-        assert_eq!(decode(&old[..o]).values, decode(&new[..n]).values, "{name}");
+        assert_eq!(new[4], qm::codec::container::VERSION, "{name}");
+        for version in [1, 2] {
+            let old = std::fs::read(asset(&format!("../tests/data/{name}.v{version}.qm"))).unwrap();
+            assert_eq!(old[4], version, "{name}");
+            let decode = |b: &[u8]| qm::codec::decompress(b, &DecodeOptions::default()).unwrap();
+            assert_eq!(decode(&old).values, decode(&new).values, "{name}");
+            // The same stream after base sections of different lengths.
+            let (o, n) = (old.len() - 300, new.len() - 300);
+            assert_eq!(old[o..], new[n..], "{name}");
+            assert_eq!(decode(&old[..o]).values, decode(&new[..n]).values, "{name}");
+        }
     }
 }
 

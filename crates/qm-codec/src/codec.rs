@@ -358,7 +358,7 @@ fn compress_with(
     let values = &data[..base.vertex_count() as usize];
     let in_stream = Some(qm_ezw::BaseBits {
         values,
-        most: basecode::noise_bits(base.faces(), values),
+        most: basecode::noise_bits(base.faces(), values, container::VERSION),
     });
 
     let encoded = qm_ezw::encode(

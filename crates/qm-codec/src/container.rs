@@ -3,7 +3,7 @@
 //! | bytes | content |
 //! |---|---|
 //! | 4 | magic `89 51 4D 0A` (`\x89QM\n`) |
-//! | 1 | format version ([`VERSION`], 2; version 1 is read too) |
+//! | 1 | format version ([`VERSION`], 3; versions 1 and 2 are read too) |
 //! | 2 | header length `H`, little endian |
 //! | `H` | [`Header`]'s fields, then its [`Header::holds`] (byte by byte: `docs/format.md`) |
 //! | 4 | CRC-32 of everything above |
@@ -24,9 +24,11 @@ use crate::{Error, Result, basecode};
 pub const MAGIC: [u8; 4] = [0x89, b'Q', b'M', b'\n'];
 
 /// The format version this build writes; it reads this one and
-/// [`OLDEST`] (`docs/format.md` specifies both). Version 2 differs from
-/// version 1 only in how the base section codes its faces (`basecode`).
-pub const VERSION: u8 = 2;
+/// every one back to [`OLDEST`] (`docs/format.md` specifies them). The
+/// versions differ only in how the base section codes its faces
+/// (`basecode`): version 2 by new and recent vertices, version 3 also a
+/// split triangle mesh by its triangles.
+pub const VERSION: u8 = 3;
 
 /// The oldest format version this build reads: the first published one.
 pub const OLDEST: u8 = 1;

@@ -2,7 +2,7 @@
 
 use glam::DVec3;
 
-use crate::{BaseMesh, Layout, SemiRegularMesh};
+use crate::{BaseMesh, Layout, SemiRegularMesh, split_triangles};
 
 /// The base mesh of a cube: vertices 0..4 around the bottom face, 4..8
 /// around the top, six faces counter-clockwise seen from outside.
@@ -25,17 +25,60 @@ pub fn cube() -> BaseMesh {
 /// pushed out onto a sphere with a wavy relief: smooth at coarse scales,
 /// detailed at fine ones, like a scanned surface.
 pub fn bumpy_sphere(level: u32) -> SemiRegularMesh {
-    let base = cube();
     // Vertices 0..4 go around the bottom face, 4..8 around the top.
     let corner = |v: u32| {
         let (x, y) = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)][(v % 4) as usize];
         DVec3::new(x, y, (v / 4) as f64) * 2.0 - 1.0
     };
+    bumpy(cube(), corner, level)
+}
+
+/// The eight faces of an octahedron, outward, its corners numbered in order
+/// of first use: `+x +y +z -x -y -z`.
+pub const OCTAHEDRON: [[u32; 3]; 8] = [
+    [0, 1, 2],
+    [1, 3, 2],
+    [3, 4, 2],
+    [4, 0, 2],
+    [1, 0, 5],
+    [3, 1, 5],
+    [4, 3, 5],
+    [0, 4, 5],
+];
+
+/// The same relief on an octahedron whose triangles are split into three
+/// quads each ([`split_triangles`]), as the remesher's charts make bases:
+/// 24 base quads with corners of valence 4 and 3.
+pub fn bumpy_split_octahedron(level: u32) -> SemiRegularMesh {
+    let triangles = OCTAHEDRON;
+    let axes = [
+        DVec3::X,
+        DVec3::Y,
+        DVec3::Z,
+        -DVec3::X,
+        -DVec3::Y,
+        -DVec3::Z,
+    ];
+    let split = split_triangles(&triangles);
+    let mut corners = vec![DVec3::ZERO; split.vertex_count as usize];
+    for (q, face) in split.faces.iter().enumerate() {
+        let t = triangles[q / 3].map(|c| axes[c as usize]);
+        corners[face[0] as usize] = t[q % 3];
+        corners[face[1] as usize] = (t[q % 3] + t[(q + 1) % 3]) / 2.0;
+        corners[face[2] as usize] = (t[0] + t[1] + t[2]) / 3.0;
+    }
+    let base = BaseMesh::new(split.vertex_count, split.faces).expect("a split is a valid base");
+    bumpy(base, |v| corners[v as usize], level)
+}
+
+/// `base` refined `level` times, each face bilinear between its corners'
+/// places `corner(v)`, pushed out onto a sphere with a wavy relief.
+fn bumpy(base: BaseMesh, corner: impl Fn(u32) -> DVec3, level: u32) -> SemiRegularMesh {
     let layout = Layout::new(base, level).expect("level within limits");
     let n = layout.n();
     let mut positions = vec![DVec3::ZERO; layout.sample_count()];
     for (f, face) in layout.base().faces().iter().enumerate() {
-        let c = face.map(corner);
+        let c = face.map(&corner);
         for j in 0..=n {
             for i in 0..=n {
                 let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
@@ -61,6 +104,18 @@ mod tests {
     fn shared_samples_get_one_position() {
         let mesh = bumpy_sphere(3);
         assert_eq!(mesh.positions().len(), 6 * 64 + 2);
+        let r: Vec<f64> = mesh.positions().iter().map(|p| p.length()).collect();
+        assert!(r.iter().all(|&r| (0.9..1.1).contains(&r)));
+    }
+
+    #[test]
+    fn the_split_octahedron_is_a_sphere() {
+        let mesh = bumpy_split_octahedron(2);
+        // 26 base vertices, 48 edges of 3 inner samples, 24 faces of 9.
+        assert_eq!(mesh.positions().len(), 26 + 48 * 3 + 24 * 9);
+        // Numbered as the base coder's version 3 recognises a split.
+        let base = mesh.layout().base();
+        assert!(crate::unsplit(base.faces(), base.vertex_count()).is_some());
         let r: Vec<f64> = mesh.positions().iter().map(|p| p.length()).collect();
         assert!(r.iter().all(|&r| (0.9..1.1).contains(&r)));
     }

@@ -24,7 +24,7 @@ use std::cell::Cell;
 use std::collections::HashMap;
 
 use qm_lift::glam::{DMat2, DVec2, DVec3};
-use qm_lift::{BaseMesh, Layout};
+use qm_lift::{BaseMesh, Layout, split_triangles};
 use rayon::prelude::*;
 
 use super::resample::{Patch, fit_grids};
@@ -54,10 +54,9 @@ fn bilinear(q: &[[f64; 3]; 4], s: f64, t: f64) -> [f64; 3] {
     std::array::from_fn(|i| w[0] * q[0][i] + w[1] * q[1][i] + w[2] * q[2][i] + w[3] * q[3][i])
 }
 
-/// The quad base mesh of a base triangle mesh: vertices are the base
-/// vertices (compacted, in order of first use), then one per edge, then
-/// one per triangle. Returns the quads, the vertex count, per quad its
-/// triangle and corner, and the compact id of each base vertex.
+/// The quad base mesh of a base triangle mesh ([`split_triangles`], whose
+/// numbering the base coder relies on): the quads, the vertex count, per
+/// quad its triangle and corner, and the compact id of each base vertex.
 pub(super) struct Quads {
     pub faces: Vec<[u32; 4]>,
     pub vertex_count: u32,
@@ -66,40 +65,66 @@ pub(super) struct Quads {
 }
 
 pub(super) fn quads(triangles: &[[u32; 3]]) -> Quads {
-    let mut compact = HashMap::new();
-    for t in triangles {
-        for &v in t {
-            let next = compact.len() as u32;
-            compact.entry(v).or_insert(next);
-        }
-    }
-    let corners = compact.len() as u32;
-    let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
-    for t in triangles {
-        for i in 0..3 {
-            let (a, b) = (t[i], t[(i + 1) % 3]);
-            let next = corners + edges.len() as u32;
-            edges.entry((a.min(b), a.max(b))).or_insert(next);
-        }
-    }
-    let first_centre = corners + edges.len() as u32;
-    let mut faces = Vec::with_capacity(3 * triangles.len());
-    let mut owner = Vec::with_capacity(3 * triangles.len());
-    for (ti, t) in triangles.iter().enumerate() {
-        let edge = |a: u32, b: u32| edges[&(a.min(b), a.max(b))];
-        let centre = first_centre + ti as u32;
-        for c in 0..3 {
-            let (a, b, d) = (t[c], t[(c + 1) % 3], t[(c + 2) % 3]);
-            faces.push([compact[&a], edge(a, b), centre, edge(d, a)]);
-            owner.push((ti as u32, c as u8));
-        }
-    }
+    let order = traversal(triangles);
+    let turned: Vec<[u32; 3]> = (order.iter())
+        .map(|&(t, r)| std::array::from_fn(|i| triangles[t as usize][(r as usize + i) % 3]))
+        .collect();
+    let split = split_triangles(&turned);
+    let compact = (split.corners.iter().enumerate())
+        .map(|(i, &v)| (v, i as u32))
+        .collect();
+    let owner = (0..3 * triangles.len())
+        .map(|q| {
+            let (t, r) = order[q / 3];
+            (t, ((r as usize + q % 3) % 3) as u8)
+        })
+        .collect();
     Quads {
-        faces,
-        vertex_count: first_centre + triangles.len() as u32,
+        faces: split.faces,
+        vertex_count: split.vertex_count,
         owner,
         compact,
     }
+}
+
+/// The base triangles in the order the base coder sends them cheaply, each
+/// with the corner it starts at: every triangle after the first of its
+/// part shares an edge with one before it, the most recently opened such
+/// edge first, and starts at that edge (`docs/format.md`, version 3).
+fn traversal(triangles: &[[u32; 3]]) -> Vec<(u32, u8)> {
+    let mut holding: HashMap<(u32, u32), (u32, u8)> = HashMap::with_capacity(3 * triangles.len());
+    for (t, tri) in triangles.iter().enumerate() {
+        for i in 0..3 {
+            holding.insert((tri[i], tri[(i + 1) % 3]), (t as u32, i as u8));
+        }
+    }
+    let mut placed = vec![false; triangles.len()];
+    let mut order = Vec::with_capacity(triangles.len());
+    // Open edges, the most recent last, as the coder lists them: a
+    // triangle opens its edges in turn, so its last is the most recent.
+    let mut open: Vec<(u32, u32)> = Vec::new();
+    for seed in 0..triangles.len() as u32 {
+        let mut next = (!placed[seed as usize]).then_some((seed, 0u8));
+        while let Some((t, r)) = next {
+            placed[t as usize] = true;
+            order.push((t, r));
+            let tri = triangles[t as usize];
+            // The first edge is the one attached to (but in a part's first
+            // triangle), and its twin is placed: it is dropped when popped.
+            for i in 0..3 {
+                let k = (r as usize + i) % 3;
+                open.push((tri[k], tri[(k + 1) % 3]));
+            }
+            next = None;
+            while let Some((a, b)) = open.pop() {
+                if let Some(&(u, i)) = holding.get(&(b, a)).filter(|(u, _)| !placed[*u as usize]) {
+                    next = Some((u, i));
+                    break;
+                }
+            }
+        }
+    }
+    order
 }
 
 /// One base vertex's chart.
