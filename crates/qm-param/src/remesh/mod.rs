@@ -844,6 +844,7 @@ fn finish(
         // The surface triangle each sample was sampled from (the components'
         // triangles one after the other, as in `surface::Surface`).
         let mut triangles: Vec<u32> = Vec::new();
+        let mut pinned: Vec<bool> = Vec::new();
         let mut first_triangle = 0u32;
         let mut base_vertices = 0u32;
         let mut reports = Vec::new();
@@ -853,6 +854,7 @@ fn finish(
             grids.extend(patch.grids.iter().map(|&s| s + so));
             positions.extend_from_slice(&patch.positions);
             triangles.extend(patch.triangles.iter().map(|&t| t + first_triangle));
+            pinned.extend_from_slice(&patch.pinned);
             first_triangle += component.triangles.len() as u32;
             base_vertices += patch.base_vertices;
             reports.push(report);
@@ -866,14 +868,15 @@ fn finish(
         let (mesh, source) = SemiRegularMesh::from_face_grids(layout, &grids, &positions)?;
         // Per sample of the layout.
         let triangles: Vec<u32> = source.iter().map(|&v| triangles[v as usize]).collect();
-        Ok((mesh, triangles, reports))
+        let pinned: Vec<bool> = source.iter().map(|&v| pinned[v as usize]).collect();
+        Ok((mesh, triangles, pinned, reports))
     };
     let (sampled, surface) = rayon::join(join, || {
         options
             .normal
             .then(|| surface::Surface::new(&cleaned.components))
     });
-    let (mut mesh, triangles, reports) = sampled?;
+    let (mut mesh, triangles, pinned, reports) = sampled?;
     let mut normal_report = None;
     if let Some(surface) = surface {
         let surface = surface?;
@@ -882,6 +885,7 @@ fn finish(
             &layout,
             &mut positions,
             &triangles,
+            &pinned,
             &surface,
             options.fit_rounds,
         );

@@ -32,6 +32,9 @@ pub struct Patch {
     pub triangles: Vec<u32>,
     /// Grid points no triangle covered (filled from a neighbour).
     pub uncovered: usize,
+    /// Per local sample, whether it lies on a feature line of the base
+    /// domain (charts): normal placement leaves those where they are.
+    pub pinned: Vec<bool>,
 }
 
 /// Samples `disk` as laid out by `map` at level `level`; with `fit_rounds`
@@ -133,6 +136,7 @@ pub fn resample(disk: &Disk, map: &SquareMap, level: u32, fit_rounds: usize) -> 
         faces,
         base_vertices,
         grids,
+        pinned: vec![false; sample_positions.len()],
         positions: sample_positions,
         triangles: sample_triangles,
         uncovered,
