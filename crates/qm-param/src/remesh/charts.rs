@@ -20,8 +20,8 @@
 //! vertex moves down the map's stretch (`relax_stretch`), never folding a
 //! triangle, so that sampling density follows the surface.
 
+use std::cell::Cell;
 use std::collections::HashMap;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 use qm_lift::glam::{DMat2, DVec2, DVec3};
 use qm_lift::{BaseMesh, Layout, split_triangles};
@@ -1204,25 +1204,6 @@ const PLEAT_PENALTY: f64 = 1000.0;
 /// that can only shrink sampled the bunny 0.3 dB worse.
 const STEP_GROWTH: f64 = 2.0;
 
-/// Fewer vertices of one colour than this relax on one thread, in place: a
-/// copy of the map per thread costs more than they do.
-const PARALLEL_CLASS: usize = 256;
-
-/// A greedy colouring of the input's vertices: each takes the least colour
-/// none of its neighbours (over `around`, the triangles at each) took.
-fn colours(mesh: &TriMesh, around: &[Vec<u32>]) -> Vec<u32> {
-    let mut colours = vec![u32::MAX; mesh.positions.len()];
-    let mut taken = Vec::new();
-    for p in 0..colours.len() {
-        taken.clear();
-        for &t in &around[p] {
-            taken.extend(mesh.triangles[t as usize].map(|w| colours[w as usize]));
-        }
-        colours[p] = (0..).find(|c| !taken.contains(c)).unwrap_or(0);
-    }
-    colours
-}
-
 /// The regularization of the determinant in [`untangle_knots`]' energy,
 /// relative to the input triangle's own area.
 const UNTANGLE_DELTA: f64 = 1e-2;
@@ -1240,12 +1221,8 @@ struct Knots<'a> {
     /// the triangle's area) against this scale of the map's determinant,
     /// not the conformal distortion.
     stretch: Option<(f64, Vec<f64>)>,
-    /// Per input vertex: the step its last move took (`f64` bits), 0
-    /// before any.
-    steps: Vec<AtomicU64>,
-    /// Per input vertex: a colour no neighbour has. Vertices of one colour
-    /// relax independently: a move changes the energy of its own ring only.
-    colours: Vec<u32>,
+    /// Per input vertex: the step its last move took, 0 before any.
+    steps: Vec<Cell<f64>>,
 }
 
 impl<'a> Knots<'a> {
@@ -1276,58 +1253,25 @@ impl<'a> Knots<'a> {
             shapes,
             penalty: FOLD_PENALTY,
             stretch: None,
-            steps: (0..mesh.positions.len())
-                .map(|_| AtomicU64::new(0))
-                .collect(),
-            colours: colours(mesh, &domain.around),
+            steps: vec![Cell::new(0.0); mesh.positions.len()],
         }
     }
 
     /// Gauss-Seidel sweeps over `region` (the vertices marked `inside`),
-    /// each after the first over the neighbours of those that moved. A
-    /// sweep takes the vertices colour by colour, and a colour's vertices in
-    /// parallel, each thread on its own copy of the map: they do not touch
-    /// one another's rings, so the result is that of one thread.
+    /// each after the first over the neighbours of those that moved.
     fn sweep(&self, base: &mut Base, region: &[u32], inside: &[bool], sweeps: usize) {
         let mut active = region.to_vec();
         for _ in 0..sweeps {
-            active.sort_by_key(|&p| (self.colours[p as usize], p));
-            let mut moved = Vec::new();
-            for class in
-                active.chunk_by(|&p, &q| self.colours[p as usize] == self.colours[q as usize])
-            {
-                if class.len() < PARALLEL_CLASS {
-                    moved.extend(class.iter().copied().filter(|&p| self.relax(base, p)));
-                    continue;
-                }
-                let threads = rayon::current_num_threads().max(1);
-                let now: &Base = base;
-                let chunks: Vec<Vec<(u32, Location)>> = class
-                    .par_chunks(class.len().div_ceil(threads))
-                    .map(|chunk| {
-                        let mut own = now.clone();
-                        let mut moved = Vec::new();
-                        for &p in chunk {
-                            if self.relax(&mut own, p) {
-                                moved.push((p, own.location[p as usize]));
-                            }
-                        }
-                        moved
-                    })
-                    .collect();
-                for (p, l) in chunks.into_iter().flatten() {
-                    base.location[p as usize] = l;
-                    moved.push(p);
-                }
-            }
             let mut next = Vec::new();
-            for &p in &moved {
-                for &t in &self.domain.around[p as usize] {
-                    next.extend(
-                        self.mesh.triangles[t as usize]
-                            .into_iter()
-                            .filter(|&w| inside[w as usize] && self.movable(base, w)),
-                    );
+            for &p in &active {
+                if self.relax(base, p) {
+                    for &t in &self.domain.around[p as usize] {
+                        next.extend(
+                            self.mesh.triangles[t as usize]
+                                .into_iter()
+                                .filter(|&w| inside[w as usize] && self.movable(base, w)),
+                        );
+                    }
                 }
             }
             next.sort_unstable();
@@ -1562,7 +1506,7 @@ impl<'a> Knots<'a> {
             let d = -g.normalize();
             // Relaxing the stretch starts from twice the vertex's last
             // step: the map moves little from sweep to sweep.
-            let remembered = f64::from_bits(self.steps[p as usize].load(Ordering::Relaxed));
+            let remembered = self.steps[p as usize].get();
             let mut step = if self.stretch.is_some() && remembered > 0.0 {
                 (STEP_GROWTH * remembered).min(0.5 * size)
             } else {
@@ -1575,7 +1519,7 @@ impl<'a> Knots<'a> {
                     && ey < e
                 {
                     found = Some((y, ey, base.location[p as usize]));
-                    self.steps[p as usize].store(step.to_bits(), Ordering::Relaxed);
+                    self.steps[p as usize].set(step);
                     break;
                 }
                 step *= 0.5;
@@ -1856,23 +1800,6 @@ mod tests {
             positions: r.mesh.positions().to_vec(),
             triangles,
         }
-    }
-
-    /// The relaxation takes a colour's vertices in parallel: the remesh is
-    /// the same on one thread as on two, bit for bit.
-    #[test]
-    fn the_remesh_does_not_depend_on_the_threads() {
-        // 4,608 vertices: colours of more vertices than `PARALLEL_CLASS`.
-        let input = torus(96, 48);
-        let on = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            let r = pool.install(|| remesh(&input, &options().with_normal(false)).expect("remesh"));
-            r.mesh.positions().to_vec()
-        };
-        assert!(on(1) == on(2));
     }
 
     #[test]
