@@ -207,11 +207,11 @@ impl<'a> Predictor<'a> {
 
     /// Prediction of vertex `v`'s value from the values of vertices `0..v`.
     fn predict(&self, v: usize, values: &[[i32; 3]]) -> [i64; 3] {
-        let predicted = match &self.split {
-            Some(split) => split.predict(v, self.faces, values),
-            None => None,
-        };
-        let predicted = predicted.or_else(|| self.over_quads(v, values));
+        let over_triangles = self
+            .split
+            .as_ref()
+            .and_then(|s| s.predict(v, self.faces, values));
+        let predicted = over_triangles.or_else(|| self.over_quads(v, values));
         predicted.unwrap_or(match v {
             0 => [0; 3],
             _ => values[v - 1].map(i64::from),
@@ -323,15 +323,19 @@ impl PlaceTree {
     fn get(&mut self, r: &mut BitReader) -> Result<usize, String> {
         let mut node = 1;
         for _ in 0..RECENT.trailing_zeros() {
-            let bit = r.decode(&mut self.0[node]).map_err(|_| ENDS.to_string())?;
+            let bit = face_bit(r, &mut self.0[node])?;
             node = 2 * node + usize::from(bit);
         }
         Ok(node - RECENT)
     }
 }
 
-/// What a base section too short for its faces says.
-const ENDS: &str = "it ends before its last face";
+/// A flag of the faces (or triangles); the error is what a base section
+/// too short for them says.
+fn face_bit(r: &mut BitReader, c: &mut Context) -> Result<bool, String> {
+    r.decode(c)
+        .map_err(|_| "it ends before its last face".to_string())
+}
 
 /// The face coder's state, the same on both sides: version 1's difference
 /// to the previous face's corner alone, or (versions 2 and 3, not split)
@@ -399,17 +403,16 @@ impl FaceModel {
 
     /// Face `f`; the error says what is wrong with it.
     fn get(&mut self, r: &mut BitReader, f: usize) -> Result<[u32; 4], String> {
-        let bit = |r: &mut BitReader, c: &mut Context| r.decode(c).map_err(|_| ENDS.to_string());
         let vertices = self.used.len() as i64;
         let mut face = [0u32; 4];
         for (k, corner) in face.iter_mut().enumerate() {
             let (mut new, mut place) = (false, None);
             let v = if self.version1 {
                 self.previous[k] as i64 + self.step[k].get(r)?
-            } else if bit(r, &mut self.new[k])? {
+            } else if face_bit(r, &mut self.new[k])? {
                 new = true;
                 self.last_new[k] + self.new_step[k].get(r)?
-            } else if bit(r, &mut self.recent[k])? {
+            } else if face_bit(r, &mut self.recent[k])? {
                 let i = self.place[k].get(r)?;
                 let Some(&u) = self.recents.get(i) else {
                     let known = self.recents.len();
@@ -533,7 +536,8 @@ impl TriangleModel {
 
     /// Triangle `t`; the error says what is wrong with it.
     fn get(&mut self, r: &mut BitReader, t: usize) -> Result<[u32; 3], String> {
-        if r.decode(&mut self.attached).map_err(|_| ENDS.to_string())? {
+        let mut triangle = [0; 3];
+        if face_bit(r, &mut self.attached)? {
             let place = self.place.get(r)?;
             let Some(&(a, b)) = usize::try_from(place).ok().and_then(|p| self.open.get(p)) else {
                 let open = self.open.len();
@@ -541,45 +545,34 @@ impl TriangleModel {
                     "triangle {t} attaches to open edge {place} of {open}"
                 ));
             };
-            let i = if r
-                .decode(&mut self.rotation[0])
-                .map_err(|_| ENDS.to_string())?
-            {
+            let i = if face_bit(r, &mut self.rotation[0])? {
                 0
-            } else if r
-                .decode(&mut self.rotation[1])
-                .map_err(|_| ENDS.to_string())?
-            {
+            } else if face_bit(r, &mut self.rotation[1])? {
                 1
             } else {
                 2
             };
-            let mut triangle = [0; 3];
             triangle[i] = b;
             triangle[(i + 1) % 3] = a;
             triangle[(i + 2) % 3] = self.get_vertex(r, t, 0)?;
-            self.used(&triangle);
-            Ok(triangle)
         } else {
-            let mut triangle = [0; 3];
             for v in &mut triangle {
                 *v = self.get_vertex(r, t, 1)?;
             }
-            self.used(&triangle);
-            Ok(triangle)
         }
+        self.used(&triangle);
+        Ok(triangle)
     }
 
     fn get_vertex(&mut self, r: &mut BitReader, t: usize, kind: usize) -> Result<u32, String> {
-        let bit = |r: &mut BitReader, c: &mut Context| r.decode(c).map_err(|_| ENDS.to_string());
-        if bit(r, &mut self.new[kind])? {
+        if face_bit(r, &mut self.new[kind])? {
             if self.corners == self.most {
                 return Err(format!("triangle {t} has more than {} corners", self.most));
             }
             self.corners += 1;
             return Ok(self.corners - 1);
         }
-        if bit(r, &mut self.recent)? {
+        if face_bit(r, &mut self.recent)? {
             let i = self.recent_place.get(r)?;
             return match self.recents.get(i) {
                 Some(&u) => Ok(u),
@@ -693,9 +686,7 @@ pub(crate) fn decode(
 ) -> Result<BaseSection, String> {
     let range = (i32::MIN >> low_bits) as i64..=(i32::MAX >> low_bits) as i64;
     let mut r = BitReader::new(bytes);
-    let split = version >= 3
-        && r.decode(&mut Context::default())
-            .map_err(|_| ENDS.to_string())?;
+    let split = version >= 3 && face_bit(&mut r, &mut Context::default())?;
     let (faces, triangles) = if split {
         if face_count % 3 != 0 {
             return Err(format!(

@@ -2005,10 +2005,7 @@ mod tests {
     /// notches, not on the chords the straight base edges lay across them.
     #[test]
     fn a_ragged_border_is_sampled_along_itself() {
-        // Drop a triangle of the border cells, here and there.
-        let m = 40;
-        let border = |i: usize, j: usize| i == 0 || j == 0 || i == m - 2 || j == m - 2;
-        let input = patch(m, 0.1, |i, j| !(border(i, j) && (i + j) % 3 == 0));
+        let input = ragged_patch();
         // Sampling itself: no fit or normal placement after it.
         let sampling = options().with_normal(false).with_fit_rounds(0);
         let (on, total) = on_border(&input, &sampling);
@@ -2027,14 +2024,20 @@ mod tests {
     /// of 3,392).
     #[test]
     fn normal_placement_keeps_feature_lines() {
-        let m = 40;
-        let border = |i: usize, j: usize| i == 0 || j == 0 || i == m - 2 || j == m - 2;
-        let input = patch(m, 0.1, |i, j| !(border(i, j) && (i + j) % 3 == 0));
+        let input = ragged_patch();
         let (on, total) = on_border(&input, &options().with_fit_rounds(0));
         assert!(
             on as f64 >= 0.99 * total as f64,
             "{on} of {total} remesh boundary points on the input's border"
         );
+    }
+
+    /// A 40 x 40 patch with a triangle of its border cells dropped here and
+    /// there.
+    fn ragged_patch() -> PolyMesh {
+        let m = 40;
+        let border = |i: usize, j: usize| i == 0 || j == 0 || i == m - 2 || j == m - 2;
+        patch(m, 0.1, |i, j| !(border(i, j) && (i + j) % 3 == 0))
     }
 
     /// How many of the remesh's boundary points lie on the input's border,

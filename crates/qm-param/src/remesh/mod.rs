@@ -452,8 +452,8 @@ const MAX_BASE_TRIANGLES: f64 = 500.0;
 const BASE_SLACK: f64 = 1.1;
 
 /// Base triangles per sample at most: about 2% of a stream of about a byte
-/// a sample, at version 2's 16 bytes a base triangle (under 1% in
-/// version 3).
+/// a sample, at version 2's 16 bytes a base triangle (about 1% at
+/// version 3's 6 to 9).
 const BASE_SHARE: f64 = 0.02 / 16.0;
 
 /// How many samples of [`BYTES_PER_SAMPLE`] a sample through charts counts
