@@ -157,3 +157,47 @@ fn messy_input_remeshes() {
     // Two closed tori (Euler 0 each) and three open disks (Euler 1 each).
     assert_eq!(topology(&out).0, 3);
 }
+
+/// A faceted input (two coarse tori, every edge a crease) is sent as its
+/// own triangles: level 0, exactly the input after the last byte, and the
+/// file smaller than its remesh's.
+#[test]
+fn a_faceted_input_is_sent_as_itself() {
+    let a = torus(12, 6);
+    let mut positions = a.positions.clone();
+    let mut faces: Vec<[u32; 3]> = a.faces().map(|f| [f[0], f[1], f[2]]).collect();
+    let offset = positions.len() as u32;
+    positions.extend(a.positions.iter().map(|p| *p + DVec3::new(10.0, 0.0, 0.0)));
+    faces.extend(
+        a.faces()
+            .map(|f| [f[0] + offset, f[1] + offset, f[2] + offset]),
+    );
+    let input = PolyMesh::from_faces(positions, &faces);
+    let options = qm::Options::default();
+    let encoded = qm::encode(&input, &options).unwrap();
+    let report = encoded.remeshed.as_ref().unwrap();
+    assert_eq!((report.domain, encoded.level), ("input", 0));
+    assert!(report.fallback.is_some());
+    let decoded = qm::decode(&encoded.bytes, &qm::DecodeOptions::default()).unwrap();
+    let d = distance(&input, &decoded.mesh, &DistanceOptions::default()).unwrap();
+    assert!(d.psnr_db > 95.0, "{} dB", d.psnr_db);
+    // Bit-exact: the midpoints and centres snapped to their predictions are
+    // what comes back.
+    let prepared = qm::prepare(&input, &RemeshOptions::DEFAULT).unwrap();
+    let compressed = qm::codec::compress(&prepared.mesh, &qm::EncodeOptions::DEFAULT).unwrap();
+    let back = qm::codec::decompress(&compressed.bytes, &qm::DecodeOptions::default()).unwrap();
+    assert_eq!(back.values, compressed.quantized);
+    // Its remesh, forced: further from the input, and larger.
+    let remesh =
+        options.with_remesh(RemeshOptions::DEFAULT.with_domain(qm::param::BaseDomain::Square));
+    let remeshed = qm::encode(&input, &remesh).unwrap();
+    let decoded = qm::decode(&remeshed.bytes, &qm::DecodeOptions::default()).unwrap();
+    let r = distance(&input, &decoded.mesh, &DistanceOptions::default()).unwrap();
+    assert!(
+        r.psnr_db < d.psnr_db - 10.0,
+        "{} against {} dB",
+        r.psnr_db,
+        d.psnr_db
+    );
+    assert!(remeshed.bytes.len() > encoded.bytes.len());
+}

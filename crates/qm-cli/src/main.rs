@@ -47,10 +47,12 @@ struct RemeshArgs {
     /// by default that is an error.
     #[arg(long)]
     accept_folds: bool,
-    /// How the base domain is made: one square per part, or a simplified
-    /// base domain of many charts; auto makes and measures both and takes
-    /// the charts where one square fails or measures 2 dB worse (see
-    /// docs/remesher-next.md).
+    /// How the base domain is made: one square per part, a simplified
+    /// base domain of many charts, or the input's own triangles at level 0
+    /// (exact, nothing to stream); auto makes and measures the first two,
+    /// takes the charts where one square fails or measures 2 dB worse, and
+    /// takes the input's triangles for an input of at most 20,000 whose
+    /// remesh fails or measures below 80 dB (see docs/remesher-next.md).
     #[arg(long, value_enum, default_value_t = Domain::Auto)]
     base_domain: Domain,
     /// Refuse a remesh through a simplified base domain that measures
@@ -65,6 +67,7 @@ enum Domain {
     Auto,
     Square,
     Charts,
+    Input,
 }
 
 impl RemeshArgs {
@@ -80,6 +83,7 @@ impl RemeshArgs {
                 Domain::Auto => qm::param::BaseDomain::Auto,
                 Domain::Square => qm::param::BaseDomain::Square,
                 Domain::Charts => qm::param::BaseDomain::Charts,
+                Domain::Input => qm::param::BaseDomain::Input,
             })
             .with_min_psnr(self.min_remesh_psnr)
     }

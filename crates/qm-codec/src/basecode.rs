@@ -623,6 +623,30 @@ fn split_of(faces: &[[u32; 4]], vertices: usize, version: u8) -> Option<Vec<[u32
         .flatten()
 }
 
+/// Sets the edge midpoints and centres of a split base (`faces`, version 3)
+/// to their predictions, so that they cost next to nothing; does nothing to
+/// other bases. For a mesh of level 0 alone, whose base is all there is
+/// (the remesher's exact base, the input's own triangles): its midpoints
+/// and centres lie on the flat triangles between the corners, and their
+/// predictions are those points rounded from the rounded corners, a
+/// quantization step or so from them. Elsewhere the base values are
+/// lifted, not samples, and must stay as they are.
+pub(crate) fn snap_split(faces: &[[u32; 4]], values: &mut [[i32; 3]]) {
+    let Some(triangles) = split_of(faces, values.len(), crate::container::VERSION) else {
+        return;
+    };
+    let corners = triangles
+        .iter()
+        .flatten()
+        .max()
+        .map_or(0, |&c| c as usize + 1);
+    let predictor = Predictor::new(faces, values.len(), Some(&triangles));
+    for v in corners..values.len() {
+        let p = predictor.predict(v, values);
+        values[v] = p.map(|x| x.clamp(i32::MIN.into(), i32::MAX.into()) as i32);
+    }
+}
+
 /// Codes `faces` (corners below `values.len()`) and `values`, in format
 /// version `version` (1 or 2).
 pub(crate) fn encode(faces: &[[u32; 4]], values: &[[i32; 3]], version: u8) -> Vec<u8> {
@@ -805,6 +829,43 @@ mod tests {
         let values = places.iter().map(|&(x, y)| at(x, y)).collect();
         let triangles = unsplit(&split.faces, split.vertex_count).unwrap();
         (split.faces, values, triangles)
+    }
+
+    /// Snapped to their predictions, a split base's midpoints and centres
+    /// cost next to nothing, move by a step or two at most, and come back
+    /// exactly; a base that is no split is left as it is.
+    #[test]
+    fn snapped_midpoints_and_centres_cost_next_to_nothing() {
+        let (faces, values, triangles) = split_grid(16);
+        let corners = triangles
+            .iter()
+            .flatten()
+            .max()
+            .map_or(0, |&c| c as usize + 1);
+        // The grid's midpoints and centres off the flat triangles between
+        // the corners by up to 1 in 4000: what snapping moves.
+        let mut snapped = values.clone();
+        snap_split(&faces, &mut snapped);
+        assert_eq!(snapped[..corners], values[..corners]);
+        let moved = (corners..values.len())
+            .flat_map(|v| (0..3).map(move |i| (v, i)))
+            .filter(|&(v, i)| snapped[v][i] != values[v][i])
+            .count();
+        assert!(moved > 0);
+        let (before, after) = (encode(&faces, &values, 3), encode(&faces, &snapped, 3));
+        // Zero residuals: under a bit a value.
+        assert!(
+            8 * (before.len() - after.len()) > values.len() - corners,
+            "{} against {}",
+            after.len(),
+            before.len()
+        );
+        let got = decode(&after, faces.len(), values.len(), 0, 3).unwrap();
+        assert_eq!(got.values, snapped);
+        let (quads, grid) = grid(4);
+        let mut same = grid.clone();
+        snap_split(&quads, &mut same);
+        assert_eq!(same, grid);
     }
 
     /// Version 3 sends a split base's triangles and predicts its values

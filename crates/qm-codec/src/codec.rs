@@ -245,7 +245,10 @@ pub fn compress_probed(
         }
     }
     let quantizer = Quantizer::fit(mesh.positions(), options.bits)?;
-    let quantized = quantizer.quantize_all(mesh.positions());
+    let mut quantized = quantizer.quantize_all(mesh.positions());
+    if mesh.layout().level() == 0 {
+        basecode::snap_split(mesh.layout().base().faces(), &mut quantized);
+    }
     let compress_with =
         |frames| compress_with(mesh.layout(), quantizer, &quantized, options, frames);
     let mut compressed = match options.frames {
