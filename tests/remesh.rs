@@ -187,6 +187,25 @@ fn a_faceted_input_is_sent_as_itself() {
     let compressed = qm::codec::compress(&prepared.mesh, &qm::EncodeOptions::DEFAULT).unwrap();
     let back = qm::codec::decompress(&compressed.bytes, &qm::DecodeOptions::default()).unwrap();
     assert_eq!(back.values, compressed.quantized);
+    // The corners' low bits follow the base section in the stream, plane
+    // by plane: every cut past it decodes, the shortest far coarser than
+    // the whole file.
+    let start = encoded.header_bytes + encoded.base_bytes;
+    assert!(
+        4 * start < 3 * encoded.bytes.len(),
+        "{start} of {}",
+        encoded.bytes.len()
+    );
+    let few = DistanceOptions::default().with_samples(20_000);
+    let cut_psnr = |cut: usize| {
+        let decoded = qm::decode(&encoded.bytes[..cut], &qm::DecodeOptions::default()).unwrap();
+        distance(&input, &decoded.mesh, &few).unwrap().psnr_db
+    };
+    let (first, whole) = (cut_psnr(start), cut_psnr(encoded.bytes.len()));
+    assert!(first < whole - 12.0, "{first} dB, then {whole} dB");
+    for cut in (start..encoded.bytes.len()).step_by(7) {
+        assert!(cut_psnr(cut) <= whole + 0.1, "cut {cut}");
+    }
     // Its remesh, forced: further from the input, and larger.
     let remesh =
         options.with_remesh(RemeshOptions::DEFAULT.with_domain(qm::param::BaseDomain::Square));

@@ -222,9 +222,9 @@ fn cases(v: &Valid) -> Vec<Case> {
         ),
         case(
             "qm-header-flag-0x20.qm",
-            "reserved header flag bit 5 set (development builds' neighbour-context flag)",
+            "implied-split flag (bit 5) on a level-4 file",
             v.changed(&|h| h.flags |= 0x20),
-            "unknown header flags 0x20",
+            "implied base midpoints and centres at level 4",
         ),
         case(
             "qm-header-empty-hold.qm",

@@ -623,6 +623,21 @@ fn split_of(faces: &[[u32; 4]], vertices: usize, version: u8) -> Option<Vec<[u32
         .flatten()
 }
 
+/// How many corners a split base (`faces` over `vertices`, version 3) has:
+/// its first vertices; `None` for a base that is no split.
+pub(crate) fn split_corners(faces: &[[u32; 4]], vertices: usize) -> Option<usize> {
+    let triangles = split_of(faces, vertices, crate::container::VERSION)?;
+    Some(corner_count(&triangles))
+}
+
+fn corner_count(triangles: &[[u32; 3]]) -> usize {
+    triangles
+        .iter()
+        .flatten()
+        .max()
+        .map_or(0, |&c| c as usize + 1)
+}
+
 /// Sets the edge midpoints and centres of a split base (`faces`, version 3)
 /// to their predictions, so that they cost next to nothing; does nothing to
 /// other bases. For a mesh of level 0 alone, whose base is all there is
@@ -635,11 +650,7 @@ pub(crate) fn snap_split(faces: &[[u32; 4]], values: &mut [[i32; 3]]) {
     let Some(triangles) = split_of(faces, values.len(), crate::container::VERSION) else {
         return;
     };
-    let corners = triangles
-        .iter()
-        .flatten()
-        .max()
-        .map_or(0, |&c| c as usize + 1);
+    let corners = corner_count(&triangles);
     let predictor = Predictor::new(faces, values.len(), Some(&triangles));
     for v in corners..values.len() {
         let p = predictor.predict(v, values);
@@ -648,8 +659,15 @@ pub(crate) fn snap_split(faces: &[[u32; 4]], values: &mut [[i32; 3]]) {
 }
 
 /// Codes `faces` (corners below `values.len()`) and `values`, in format
-/// version `version` (1 or 2).
-pub(crate) fn encode(faces: &[[u32; 4]], values: &[[i32; 3]], version: u8) -> Vec<u8> {
+/// version `version`; with `implied` (a split base at level 0, header flag
+/// [`crate::container::IMPLIED_SPLIT`]) the values of the corners alone, the
+/// others being their predictions ([`snap_split`]).
+pub(crate) fn encode(
+    faces: &[[u32; 4]],
+    values: &[[i32; 3]],
+    version: u8,
+    implied: bool,
+) -> Vec<u8> {
     let mut w = BitWriter::new();
     let split = split_of(faces, values.len(), version);
     if version >= 3 {
@@ -666,8 +684,9 @@ pub(crate) fn encode(faces: &[[u32; 4]], values: &[[i32; 3]], version: u8) -> Ve
         }
     }
     let predictor = Predictor::new(faces, values.len(), split.as_deref());
+    let coded = coded_values(split.as_deref(), values.len(), implied);
     let mut coord = vec![IntModel::new(); 3];
-    for (v, value) in values.iter().enumerate() {
+    for (v, value) in values.iter().enumerate().take(coded) {
         let p = predictor.predict(v, values);
         for i in 0..3 {
             coord[i].put(&mut w, value[i] as i64 - p[i]);
@@ -681,10 +700,16 @@ pub(crate) fn encode(faces: &[[u32; 4]], values: &[[i32; 3]], version: u8) -> Ve
 /// codes' contexts still predict a little). A stream that carries these
 /// bits instead of the base section loses next to nothing on them, and a
 /// cut of it needs only as many as its details can use.
-pub(crate) fn noise_bits(faces: &[[u32; 4]], values: &[[i32; 3]], version: u8) -> u32 {
+pub(crate) fn noise_bits(
+    faces: &[[u32; 4]],
+    values: &[[i32; 3]],
+    version: u8,
+    implied: bool,
+) -> u32 {
     let split = split_of(faces, values.len(), version);
     let predictor = Predictor::new(faces, values.len(), split.as_deref());
-    let mut residuals: Vec<u64> = (0..values.len())
+    let coded = coded_values(split.as_deref(), values.len(), implied);
+    let mut residuals: Vec<u64> = (0..coded)
         .flat_map(|v| {
             let p = predictor.predict(v, values);
             (0..3).map(move |i| (values[v][i] as i64 - p[i]).unsigned_abs())
@@ -698,15 +723,27 @@ pub(crate) fn noise_bits(faces: &[[u32; 4]], values: &[[i32; 3]], version: u8) -
     (64 - median.leading_zeros()).saturating_sub(2)
 }
 
-/// Decodes what [`encode`] wrote, given the counts from the header and the
+/// How many of a base's `vertices` have their values coded: with
+/// `implied` and a split base, its corners alone.
+fn coded_values(split: Option<&[[u32; 3]]>, vertices: usize, implied: bool) -> usize {
+    match split {
+        Some(triangles) if implied => corner_count(triangles).min(vertices),
+        _ => vertices,
+    }
+}
+
+/// Decodes what [`encode`] wrote, given the counts from the header, the
 /// number of low bits the stream holds of each value (so that a value with
-/// them still fits 32 bits); the error says what is wrong.
+/// them still fits 32 bits) and whether only the corners of a split base
+/// are there (the others come back as 0, for the caller to predict); the
+/// error says what is wrong.
 pub(crate) fn decode(
     bytes: &[u8],
     face_count: usize,
     vertex_count: usize,
     low_bits: u32,
     version: u8,
+    implied: bool,
 ) -> Result<BaseSection, String> {
     let range = (i32::MIN >> low_bits) as i64..=(i32::MAX >> low_bits) as i64;
     let mut r = BitReader::new(bytes);
@@ -738,10 +775,14 @@ pub(crate) fn decode(
         }
         (faces, None)
     };
+    if implied && triangles.is_none() {
+        return Err("its midpoints and centres are said to be implied, but it is no split".into());
+    }
     let predictor = Predictor::new(&faces, vertex_count, triangles.as_deref());
+    let coded = coded_values(triangles.as_deref(), vertex_count, implied);
     let mut coord = vec![IntModel::new(); 3];
     let mut values = Vec::with_capacity(vertex_count.min(bytes.len()));
-    for v in 0..vertex_count {
+    for v in 0..coded {
         let p = predictor.predict(v, &values);
         let mut value = [0i32; 3];
         for i in 0..3 {
@@ -753,6 +794,7 @@ pub(crate) fn decode(
         }
         values.push(value);
     }
+    values.resize(vertex_count, [0; 3]);
     Ok(BaseSection {
         faces,
         values,
@@ -852,7 +894,10 @@ mod tests {
             .filter(|&(v, i)| snapped[v][i] != values[v][i])
             .count();
         assert!(moved > 0);
-        let (before, after) = (encode(&faces, &values, 3), encode(&faces, &snapped, 3));
+        let (before, after) = (
+            encode(&faces, &values, 3, false),
+            encode(&faces, &snapped, 3, false),
+        );
         // Zero residuals: under a bit a value.
         assert!(
             8 * (before.len() - after.len()) > values.len() - corners,
@@ -860,12 +905,22 @@ mod tests {
             after.len(),
             before.len()
         );
-        let got = decode(&after, faces.len(), values.len(), 0, 3).unwrap();
+        let got = decode(&after, faces.len(), values.len(), 0, 3, false).unwrap();
         assert_eq!(got.values, snapped);
         let (quads, grid) = grid(4);
         let mut same = grid.clone();
         snap_split(&quads, &mut same);
         assert_eq!(same, grid);
+        // Implied, only the corners are coded; a base that is no split
+        // cannot be implied.
+        let corners_only = encode(&faces, &snapped, 3, true);
+        assert!(corners_only.len() < after.len());
+        let got = decode(&corners_only, faces.len(), values.len(), 0, 3, true).unwrap();
+        assert_eq!(got.values[..corners], snapped[..corners]);
+        assert!(got.values[corners..].iter().all(|v| *v == [0; 3]));
+        let bytes = encode(&quads, &grid, 3, true);
+        let err = decode(&bytes, quads.len(), grid.len(), 0, 3, true).unwrap_err();
+        assert!(err.contains("no split"), "{err}");
     }
 
     /// Version 3 sends a split base's triangles and predicts its values
@@ -877,35 +932,38 @@ mod tests {
         let (faces, values, triangles) = split_grid(16);
         let faces_alone = |version| {
             let none = vec![[0; 3]; values.len()];
-            encode(&faces, &none, version).len()
+            encode(&faces, &none, version, false).len()
         };
         let (two, three) = (faces_alone(2), faces_alone(3));
         assert!(
             5 * three < two,
             "faces: version 2 {two} bytes, version 3 {three}"
         );
-        let (two, three) = (encode(&faces, &values, 2), encode(&faces, &values, 3));
+        let (two, three) = (
+            encode(&faces, &values, 2, false),
+            encode(&faces, &values, 3, false),
+        );
         assert!(
             3 * three.len() < 2 * two.len(),
             "{} against {}",
             three.len(),
             two.len()
         );
-        let got = decode(&three, faces.len(), values.len(), 0, 3).unwrap();
+        let got = decode(&three, faces.len(), values.len(), 0, 3, false).unwrap();
         assert_eq!((got.faces, got.values), (faces.clone(), values.clone()));
         assert_eq!(split_of(&faces, values.len(), 3), Some(triangles));
         // A header that counts other vertices than the triangles make.
-        let err = decode(&three, faces.len(), values.len() + 1, 0, 3).unwrap_err();
+        let err = decode(&three, faces.len(), values.len() + 1, 0, 3, false).unwrap_err();
         assert!(err.contains("base vertices"), "{err}");
-        assert!(decode(&three, faces.len() - 1, values.len(), 0, 3).is_err());
+        assert!(decode(&three, faces.len() - 1, values.len(), 0, 3, false).is_err());
     }
 
     #[test]
     fn round_trip_and_size() {
         let (faces, values) = grid(9);
         for version in [1, 2, 3] {
-            let bytes = encode(&faces, &values, version);
-            let got = decode(&bytes, faces.len(), values.len(), 0, version).unwrap();
+            let bytes = encode(&faces, &values, version, false);
+            let got = decode(&bytes, faces.len(), values.len(), 0, version, false).unwrap();
             assert_eq!((got.faces, got.values), (faces.clone(), values.clone()));
             // The plain coding took one byte per corner and about three per
             // coordinate: 324 + 300 bytes here.
@@ -936,8 +994,8 @@ mod tests {
         let vertices = faces.iter().flatten().max().map_or(0, |&v| v as usize + 1);
         let values = vec![[0; 3]; vertices];
         let size = |version| {
-            let bytes = encode(&faces, &values, version);
-            let got = decode(&bytes, faces.len(), values.len(), 0, version).unwrap();
+            let bytes = encode(&faces, &values, version, false);
+            let got = decode(&bytes, faces.len(), values.len(), 0, version, false).unwrap();
             assert_eq!(got.faces, faces, "version {version}");
             bytes.len()
         };
@@ -960,13 +1018,13 @@ mod tests {
             .iter()
             .map(|v| [v[0] + v[2], v[1] - v[2], v[2]])
             .collect();
-        assert_eq!(noise_bits(&faces, &flat, 3), 0);
-        let k = noise_bits(&faces, &values, 3);
+        assert_eq!(noise_bits(&faces, &flat, 3, false), 0);
+        let k = noise_bits(&faces, &values, 3, false);
         assert!(k > 0);
         let big: Vec<[i32; 3]> = values.iter().map(|v| v.map(|x| x * 32)).collect();
-        assert_eq!(noise_bits(&faces, &big, 3), k + 5);
+        assert_eq!(noise_bits(&faces, &big, 3, false), k + 5);
         let high: Vec<[i32; 3]> = values.iter().map(|v| v.map(|x| x >> k)).collect();
-        assert!(encode(&faces, &high, 2).len() < encode(&faces, &values, 2).len());
+        assert!(encode(&faces, &high, 2, false).len() < encode(&faces, &values, 2, false).len());
     }
 
     #[test]
@@ -979,8 +1037,8 @@ mod tests {
             [5, -5, 7],
         ];
         for version in [1, 2, 3] {
-            let bytes = encode(&faces, &values, version);
-            let got = decode(&bytes, 2, 4, 0, version).unwrap();
+            let bytes = encode(&faces, &values, version, false);
+            let got = decode(&bytes, 2, 4, 0, version, false).unwrap();
             assert_eq!((&got.faces, &got.values), (&faces, &values));
         }
     }
@@ -996,8 +1054,8 @@ mod tests {
     }
 
     fn damage(version: u8, faces: Vec<[u32; 4]>, values: Vec<[i32; 3]>) {
-        let decode = |b: &[u8], f, v| decode(b, f, v, 0, version);
-        let bytes = encode(&faces, &values, version);
+        let decode = |b: &[u8], f, v| decode(b, f, v, 0, version, false);
+        let bytes = encode(&faces, &values, version, false);
         // A cut either fails or, when the coder's last bytes were not
         // needed, still gives exactly the data.
         for cut in 0..bytes.len() {

@@ -359,9 +359,16 @@ fn compress_with(
     let coefs = tree.gather(&data);
     let base = layout.base();
     let values = &data[..base.vertex_count() as usize];
+    // A level-0 split base (the input's own triangles) sends its corners
+    // alone, high bits in the base section and the rest in the stream,
+    // plane by plane; the midpoints and centres follow from them.
+    let corners = (layout.level() == 0)
+        .then(|| basecode::split_corners(base.faces(), values.len()))
+        .flatten();
+    let implied = corners.is_some();
     let in_stream = Some(qm_ezw::BaseBits {
-        values,
-        most: basecode::noise_bits(base.faces(), values, container::VERSION),
+        values: &values[..corners.unwrap_or(values.len())],
+        most: basecode::noise_bits(base.faces(), values, container::VERSION, implied),
     });
 
     let encoded = qm_ezw::encode(
@@ -386,7 +393,7 @@ fn compress_with(
         base_faces: base.faces().len() as u32,
         planes: encoded.params.planes as u8,
         passes: encoded.params.passes as u8,
-        flags: low_bits,
+        flags: low_bits | if implied { container::IMPLIED_SPLIT } else { 0 },
         holds: Vec::new(),
     };
     let section = BaseSection {
@@ -669,8 +676,12 @@ pub fn decompress(bytes: &[u8], options: &DecodeOptions) -> Result<Decompressed>
 pub struct Decoder {
     checkpoint: std::cell::RefCell<Option<qm_ezw::Checkpoint>>,
     header: Header,
-    /// The base section's values: high parts when the stream holds low bits.
+    /// The base section's values: high parts when the stream holds low bits
+    /// (with the split implied, those of the corners, and zeros).
     base_values: Vec<Coord>,
+    /// With the split implied ([`container::IMPLIED_SPLIT`]): how many
+    /// corners have values, the other base values being made from them.
+    corners: Option<usize>,
     layout: Layout,
     tree: ZeroTree,
     quantizer: Quantizer,
@@ -707,9 +718,15 @@ impl Decoder {
             origin: h.origin,
             step: h.step,
         };
+        // The base section's decoder checked that an implied base is a split.
+        let corners = h
+            .implied()
+            .then(|| basecode::split_corners(layout.base().faces(), h.base_vertices as usize))
+            .flatten();
         Ok(Decoder {
             checkpoint: std::cell::RefCell::new(None),
             header: h,
+            corners,
             base_values: c.base.values,
             layout,
             tree,
@@ -763,7 +780,10 @@ impl Decoder {
         values: &mut Vec<Coord>,
         resume: bool,
     ) -> DecodeStatus {
-        let params = self.header.stream_params();
+        let mut params = self.header.stream_params();
+        if let Some(corners) = self.corners {
+            params.base_values = corners as u32;
+        }
         let stream = &stream[..self.header.hold_cut(stream.len())];
         let decoded = if resume {
             let from = self.checkpoint.take();
@@ -783,6 +803,10 @@ impl Decoder {
             for (v, low) in values.iter_mut().zip(&decoded.base_low) {
                 *v = std::array::from_fn(|c| (v[c] << k) + low[c]);
             }
+        }
+        if self.corners.is_some() {
+            let base = self.layout.base();
+            basecode::snap_split(base.faces(), &mut values[..base.vertex_count() as usize]);
         }
         decoded.scatter(self.tree.samples(), values);
         let level = level.map_or(self.layout.level(), |l| l.min(self.layout.level()));

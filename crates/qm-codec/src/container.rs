@@ -77,8 +77,8 @@ pub struct Header {
     pub passes: u8,
     /// Bits 0 to 4: the low bits of each base value that the stream
     /// carries instead of the base section
-    /// ([`qm_ezw::StreamParams::base_bits`]). The other bits are reserved
-    /// and zero.
+    /// ([`qm_ezw::StreamParams::base_bits`]). Bit 5: [`IMPLIED_SPLIT`].
+    /// The other bits are reserved and zero.
     pub flags: u32,
     /// Cuts of the stream that decode as a shorter cut. A stream prefix of
     /// `n` bytes with `from < n < to` for a hold `[from, to]` decodes as its
@@ -103,6 +103,16 @@ pub fn hold_cut(holds: &[[u32; 2]], n: usize) -> usize {
 /// The flags' bits that hold the base bits in the stream.
 pub const BASE_BITS_MASK: u32 = 0x1f;
 
+/// The flag of a level-0 mesh whose base is a split triangle mesh sent as
+/// its corners alone: each edge midpoint and centre is its prediction from
+/// them (the mean of its edge's ends, the quadratic through its triangle),
+/// made after the stream's low bits of the corners. Files without it are
+/// as before; readers that predate it refuse it as a reserved flag.
+pub const IMPLIED_SPLIT: u32 = 0x20;
+
+/// Every flag bit with a meaning.
+const KNOWN_FLAGS: u32 = BASE_BITS_MASK | IMPLIED_SPLIT;
+
 impl Header {
     /// The first level whose frames use parent-quad normals, `None` for
     /// world axes (see [`Self::frames`]).
@@ -116,8 +126,16 @@ impl Header {
         hold_cut(&self.holds, n)
     }
 
+    /// Whether the base is a split triangle mesh sent as its corners alone
+    /// ([`IMPLIED_SPLIT`]).
+    pub fn implied(&self) -> bool {
+        self.flags & IMPLIED_SPLIT != 0
+    }
+
     /// What the bit-plane decoder must be told about the stream.
     pub fn stream_params(&self) -> qm_ezw::StreamParams {
+        // With the split implied, the corners alone have low bits in the
+        // stream; the decoder narrows `base_values` to them.
         let weighting = qm_ezw::Weighting {
             bits_per_level: self.weight_bits as u32,
             normal_bits: self.normal_bits as u32,
@@ -127,9 +145,20 @@ impl Header {
             passes: self.passes as u32,
             weighting,
             base_bits: self.flags & BASE_BITS_MASK,
+            base_values: self.base_vertices,
             contexts: qm_ezw::Contexts::Neighbours,
         }
     }
+}
+
+/// [`IMPLIED_SPLIT`] is for level 0 alone.
+fn check_implied(h: &Header) -> Result<()> {
+    if h.implied() && h.level != 0 {
+        return Err(Error::Malformed {
+            what: format!("implied base midpoints and centres at level {}", h.level),
+        });
+    }
+    Ok(())
 }
 
 /// The base mesh as stored: corners of each face, then the level-0 scaling
@@ -190,12 +219,13 @@ pub fn encode_header(header: &Header) -> Result<Vec<u8>> {
 pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u8>> {
     let low_bits = header.stream_params().base_bits;
     check_holds(&header.holds)?;
-    let unknown = header.flags & !BASE_BITS_MASK;
+    let unknown = header.flags & !KNOWN_FLAGS;
     if unknown != 0 {
         return Err(Error::Malformed {
             what: format!("reserved header flags {unknown:#x} set"),
         });
     }
+    check_implied(header)?;
     if base.low_bits != low_bits {
         return Err(Error::Malformed {
             what: format!(
@@ -217,7 +247,7 @@ pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u
     out.extend_from_slice(&header_bytes);
     out.extend_from_slice(&crc32fast::hash(&out).to_le_bytes());
 
-    let base_bytes = basecode::encode(&base.faces, &base.values, VERSION);
+    let base_bytes = basecode::encode(&base.faces, &base.values, VERSION, header.implied());
     out.extend_from_slice(&(base_bytes.len() as u32).to_le_bytes());
     out.extend_from_slice(&base_bytes);
     out.extend_from_slice(&crc32fast::hash(&base_bytes).to_le_bytes());
@@ -396,6 +426,7 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
         header.base_vertices as usize,
         low_bits,
         version,
+        header.implied(),
     )
     .map_err(|problem| Error::Malformed {
         what: format!("base mesh: {problem}"),
@@ -497,11 +528,12 @@ fn check_header(h: &Header, limits: &Limits) -> Result<()> {
             what: format!("{} passes of {} planes", h.passes, h.planes),
         });
     }
-    if h.flags & !BASE_BITS_MASK != 0 {
+    if h.flags & !KNOWN_FLAGS != 0 {
         return Err(Error::Malformed {
-            what: format!("unknown header flags {:#x}", h.flags & !BASE_BITS_MASK),
+            what: format!("unknown header flags {:#x}", h.flags & !KNOWN_FLAGS),
         });
     }
+    check_implied(h)?;
     let params = h.stream_params();
     let most = params
         .weighting
@@ -693,7 +725,16 @@ mod tests {
             other => panic!("{other:?}"),
         }
         base.low_bits = 10;
-        for flags in [0x40 | 10, 0x20 | 10, 1 << 31] {
+        // The implied split is for level 0 alone (the sample is level 3).
+        let implied = Header {
+            flags: IMPLIED_SPLIT | 10,
+            ..header.clone()
+        };
+        match write(&implied, &base, b"") {
+            Err(Error::Malformed { what }) => assert!(what.contains("at level 3"), "{what}"),
+            other => panic!("{other:?}"),
+        }
+        for flags in [0x40 | 10, 0x80 | 10, 1 << 31] {
             let header = Header {
                 flags,
                 ..header.clone()

@@ -186,6 +186,11 @@ pub struct StreamParams {
     /// [`Weighting::max_base_bits`] of `planes`), or 0 when the base values
     /// are all elsewhere.
     pub base_bits: u32,
+    /// How many base vertices, the first ones, have those low bits in the
+    /// stream; the caller makes the others' values some other way
+    /// (`qm-codec` predicts a level-0 split base's edge midpoints and
+    /// centres from its corners).
+    pub base_values: u32,
     /// The context model.
     pub contexts: Contexts,
 }
@@ -331,10 +336,9 @@ fn plan(
 ) -> (StreamParams, Vec<i32>) {
     assert_eq!(coefs.len(), tree.len(), "one coefficient per tree node");
     if let Some(base) = base {
-        assert_eq!(
-            base.values.len(),
-            tree.base_vertices(),
-            "one value per base vertex"
+        assert!(
+            base.values.len() <= tree.base_vertices(),
+            "at most one value per base vertex"
         );
     }
     let big_l = tree.max_level();
@@ -361,13 +365,20 @@ fn plan(
         .map(|k| weighted_top(k).max(below[k]))
         .max()
         .unwrap_or(-1);
-    let planes = (top + 1) as u32;
+    // Without details (level 0) the planes are those of the base bits.
+    let planes = match base {
+        Some(b) if tree.is_empty() && !b.values.is_empty() && b.most > 0 => {
+            weighting.base_shift(big_l) + b.most.min(MAX_BASE_BITS)
+        }
+        _ => (top + 1) as u32,
+    };
     let passes = max_passes.map_or(planes, |p| p.min(planes));
     let params = StreamParams {
         planes,
         passes,
         weighting,
         base_bits: base.map_or(0, |b| weighting.max_base_bits(planes, big_l).min(b.most)),
+        base_values: base.map_or(0, |b| b.values.len() as u32),
         contexts,
     };
     (params, below)
@@ -801,7 +812,7 @@ impl State {
     fn new(tree: &ZeroTree, params: StreamParams) -> Self {
         let n = tree.len();
         let base_values = if params.base_bits > 0 {
-            tree.base_vertices()
+            (params.base_values as usize).min(tree.base_vertices())
         } else {
             0
         };
