@@ -550,6 +550,28 @@ mod tests {
         }
     }
 
+    /// A level-0 split base (a mesh sent as its own triangles) streams its
+    /// corners' low bits: every cut past the base matches the native
+    /// decoder, which makes the midpoints and centres from the corners.
+    #[test]
+    fn a_level_0_file_streams_its_corners() {
+        let mesh = qm_codec::qm_lift::synthetic::bumpy_split_octahedron(0);
+        let bytes = compress(&mesh, &EncodeOptions::DEFAULT).unwrap().bytes;
+        let decoder = Decoder::new(&bytes, &Limits::DEFAULT).unwrap();
+        assert!(decoder.header().implied());
+        assert!(decoder.stream_start() + 4 < bytes.len());
+        let mut inc = Incremental::new();
+        for chunk in bytes.chunks(5) {
+            if inc.push(chunk).unwrap() {
+                assert!(inc.refine(None).unwrap());
+                let (sum, vertices, _) = native(&bytes, inc.bytes_received(), None);
+                assert_eq!(inc.checksum(), sum, "at {} bytes", inc.bytes_received());
+                assert_eq!(inc.vertex_count(), vertices);
+            }
+        }
+        assert!(!inc.status().unwrap().truncated);
+    }
+
     #[test]
     fn refinement_is_skipped_without_new_bytes_and_levels_switch() {
         let bytes = sphere_file();
