@@ -134,5 +134,21 @@ mod tests {
         assert_eq!((r.report.domain, r.report.level), ("input", 0));
         assert!(r.report.psnr.unwrap() > 100.0);
         assert!(r.report.fallback.is_some());
+        // A level asked for is a remesh asked for; the input's own
+        // triangles are level 0 alone.
+        let at = |level, domain| {
+            let options = super::super::RemeshOptions::DEFAULT
+                .with_level(Some(level))
+                .with_domain(domain);
+            super::super::remesh(&prism(), &options)
+        };
+        let r = at(2, super::super::BaseDomain::Auto).unwrap();
+        assert_eq!(r.report.level, 2);
+        let e = at(2, super::super::BaseDomain::Input).unwrap_err();
+        assert!(e.to_string().contains("level 0, not 2"), "{e}");
+        assert_eq!(
+            at(0, super::super::BaseDomain::Input).unwrap().report.level,
+            0
+        );
     }
 }

@@ -294,13 +294,19 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
         BaseDomain::Square => remesh_square(cleaned, input_triangles, options),
         BaseDomain::Charts => remesh_charts(mesh, cleaned, input_triangles, options),
         BaseDomain::Input => {
+            if let Some(level) = options.level.filter(|&l| l != 0) {
+                return Err(Error::remesh(RemeshFailure::Step(format!(
+                    "the input's own triangles are a base of level 0, not {level}"
+                ))));
+            }
             let mut exact = exact::remesh_exact(cleaned)?;
             exact.report.psnr = Some(measure(mesh, &exact.mesh)?);
             Ok(exact)
         }
         BaseDomain::Auto => {
             let triangles: usize = cleaned.components.iter().map(|c| c.triangles.len()).sum();
-            if triangles > EXACT_MOST_TRIANGLES {
+            // A level asked for is a remesh asked for.
+            if triangles > EXACT_MOST_TRIANGLES || options.level.is_some() {
                 return remesh_auto(mesh, cleaned, input_triangles, options);
             }
             let kept = cleaned.clone();
