@@ -176,6 +176,21 @@ impl fmt::Display for Thousands {
 /// [`Error::VertexOutOfRange`] if a face refers to a missing vertex,
 /// [`Error::NonFiniteVertex`] if a used vertex is NaN or infinite.
 pub fn clean(mesh: &PolyMesh) -> Result<Cleaned> {
+    clean_with(mesh, true)
+}
+
+/// [`clean`], except that attached zero-thickness sheets are kept: both
+/// faces of each opposite pair go on to the pairing of step 4, which joins
+/// them to the surface where it can and cuts them loose as parts of their
+/// own where it cannot. For a base that is the input's own triangles
+/// (`remesh::exact`), where a part costs no more than its triangles: the
+/// thin parts of a coarse reconstruction (dragon_vrip_res4's fins) stay.
+/// A remesh cannot afford them (a level for every such splinter).
+pub fn clean_keeping_sheets(mesh: &PolyMesh) -> Result<Cleaned> {
+    clean_with(mesh, false)
+}
+
+fn clean_with(mesh: &PolyMesh, cancel: bool) -> Result<Cleaned> {
     let mut report = CleanReport {
         input_vertices: mesh.positions.len(),
         input_faces: mesh.face_count(),
@@ -186,7 +201,7 @@ pub fn clean(mesh: &PolyMesh) -> Result<Cleaned> {
 
     let (remap, positions) = merge_identical(&mesh.positions);
     report.merged_vertices = mesh.positions.len() - positions.len();
-    let tris = drop_bad_triangles(tris, &remap, &positions, &mut report);
+    let tris = drop_bad_triangles(tris, &remap, &positions, cancel, &mut report);
 
     // Step 4 both ways (parts kept apart, parts joined) where any edge has
     // more than two faces: the simpler surface wins.
@@ -327,11 +342,13 @@ fn merge_identical(positions: &[DVec3]) -> (Vec<u32>, Vec<DVec3>) {
 }
 
 /// Step 3: renumbers and drops degenerate and duplicate triangles, and
-/// cancels attached zero-thickness sheets (see the module documentation).
+/// (with `cancel`) cancels attached zero-thickness sheets (see the module
+/// documentation).
 fn drop_bad_triangles(
     tris: Vec<[u32; 3]>,
     remap: &[u32],
     positions: &[DVec3],
+    cancel: bool,
     report: &mut CleanReport,
 ) -> Vec<[u32; 3]> {
     let mut kept = Vec::with_capacity(tris.len());
@@ -387,7 +404,7 @@ fn drop_bad_triangles(
         }
         report.dropped_duplicate += run.len() - 2 * pairs.min(1) - usize::from(left.is_some());
     }
-    cancel_sheets(&kept, &twins, &mut keep, report);
+    cancel_sheets(&kept, &twins, &mut keep, cancel, report);
     let mut i = 0;
     kept.retain(|_| {
         i += 1;
@@ -410,7 +427,14 @@ struct Twins {
 /// that meets at most one other face at each edge (a free two-sided sheet,
 /// or a face stored again, reversed, on a surface) keeps one face per
 /// vertex set instead: the one left over if any, else one of the pair.
-fn cancel_sheets(tris: &[[u32; 3]], twins: &[Twins], keep: &mut [bool], report: &mut CleanReport) {
+/// Without `cancel`, the pairs of the patches that would cancel stay.
+fn cancel_sheets(
+    tris: &[[u32; 3]],
+    twins: &[Twins],
+    keep: &mut [bool],
+    cancel: bool,
+    report: &mut CleanReport,
+) {
     if twins.is_empty() {
         return;
     }
@@ -451,6 +475,14 @@ fn cancel_sheets(tris: &[[u32; 3]], twins: &[Twins], keep: &mut [bool], report: 
     for (p, t) in twins.iter().enumerate() {
         let root = sets.find(p as u32) as usize;
         let [f, g] = t.pair;
+        if many[root] && !cancel {
+            // Both faces stay, for the pairing to place; a third copy goes.
+            if let Some(l) = t.left {
+                keep[l as usize] = false;
+                report.dropped_duplicate += 1;
+            }
+            continue;
+        }
         keep[g as usize] = false;
         if many[root] {
             keep[f as usize] = false;
@@ -1288,7 +1320,7 @@ mod tests {
         let mut report = CleanReport::default();
         let tris = triangulate(&mesh, &mut report).unwrap();
         let (remap, positions) = merge_identical(&mesh.positions);
-        let tris = drop_bad_triangles(tris, &remap, &positions, &mut report);
+        let tris = drop_bad_triangles(tris, &remap, &positions, true, &mut report);
         let (inside, crowded) = resolve(&tris, &positions, CleanReport::default(), true).unwrap();
         assert!(crowded);
         assert_closed_cubes(&inside, 2);

@@ -126,6 +126,42 @@ mod tests {
         }
     }
 
+    /// A box with a zero-thickness fin on one edge (a triangle stored once
+    /// each way, as coarse reconstructions store thin parts): the clean-up
+    /// for remeshing cancels the fin, the input's own triangles keep it.
+    #[test]
+    fn the_input_keeps_its_zero_thickness_fins() {
+        let mut positions: Vec<DVec3> = (0..8)
+            .map(|i| DVec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, (i >> 2) as f64))
+            .collect();
+        positions.push(DVec3::new(0.5, 0.0, 2.0));
+        let mut faces: Vec<[u32; 3]> = Vec::new();
+        for [a, b, c, d] in [
+            [0u32, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ] {
+            faces.push([a, b, c]);
+            faces.push([a, c, d]);
+        }
+        // The fin on the top edge from 4 to 5, both ways.
+        faces.push([4, 5, 8]);
+        faces.push([5, 4, 8]);
+        let input = PolyMesh::from_faces(positions, &faces);
+        assert_eq!(clean(&input).unwrap().report.cancelled_faces, 2);
+        let kept = crate::clean::clean_keeping_sheets(&input).unwrap();
+        assert_eq!(kept.report.cancelled_faces, 0);
+        let r = remesh_exact(kept).unwrap();
+        let layout = r.mesh.layout();
+        let ours = PolyMesh::from_faces(r.mesh.positions().to_vec(), &layout.quads(0));
+        let options = crate::DistanceOptions::default().with_samples(20_000);
+        let d = crate::distance(&input, &ours, &options).unwrap();
+        assert!(d.hausdorff < 1e-9, "Hausdorff {}", d.hausdorff);
+    }
+
     /// `BaseDomain::Auto` takes the prism's own triangles: its remeshes
     /// measure far below them, or take them as their base anyway.
     #[test]
