@@ -257,16 +257,20 @@ fn golden_input(name: &str) -> qm::lift::SemiRegularMesh {
     qm::detect(&input).unwrap().mesh
 }
 
-/// Files of format versions 1 and 2, written by the builds before versions
-/// 2 and 3, are still read: they decode to the same samples as the current
+/// Files of format versions 1 to 3, written by the builds before versions
+/// 2 to 4, are still read: they decode to the same samples as the current
 /// files of the same meshes (the versions differ only in the base
 /// section's face coding), and so do their cuts past the base section.
 #[test]
 fn older_versions_are_still_read() {
-    for name in ["holed_grid", "cc_dodecahedron"] {
+    for (name, versions) in [
+        ("holed_grid", &[1, 2, 3][..]),
+        ("cc_dodecahedron", &[1, 2, 3]),
+        ("split_octahedron", &[3]),
+    ] {
         let new = std::fs::read(asset(&format!("../tests/data/{name}.qm"))).unwrap();
         assert_eq!(new[4], qm::codec::container::VERSION, "{name}");
-        for version in [1, 2] {
+        for &version in versions {
             let old = std::fs::read(asset(&format!("../tests/data/{name}.v{version}.qm"))).unwrap();
             assert_eq!(old[4], version, "{name}");
             let decode = |b: &[u8]| qm::codec::decompress(b, &DecodeOptions::default()).unwrap();

@@ -3,7 +3,7 @@
 //! | bytes | content |
 //! |---|---|
 //! | 4 | magic `89 51 4D 0A` (`\x89QM\n`) |
-//! | 1 | format version ([`VERSION`], 3; versions 1 and 2 are read too) |
+//! | 1 | format version ([`VERSION`], 4; versions 1 to 3 are read too) |
 //! | 2 | header length `H`, little endian |
 //! | `H` | [`Header`]'s fields, then its [`Header::holds`] (byte by byte: `docs/format.md`) |
 //! | 4 | CRC-32 of everything above |
@@ -27,8 +27,9 @@ pub const MAGIC: [u8; 4] = [0x89, b'Q', b'M', b'\n'];
 /// every one back to [`OLDEST`] (`docs/format.md` specifies them). The
 /// versions differ only in how the base section codes its faces
 /// (`basecode`): version 2 by new and recent vertices, version 3 also a
-/// split triangle mesh by its triangles.
-pub const VERSION: u8 = 3;
+/// split triangle mesh by its triangles, version 4 those triangles' vertices
+/// beside the edge they attach to by a flag.
+pub const VERSION: u8 = 4;
 
 /// The oldest format version this build reads: the first published one.
 pub const OLDEST: u8 = 1;
