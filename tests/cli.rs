@@ -109,7 +109,11 @@ fn info_json_reports_the_layout() {
     assert!(v["passes"].as_u64().unwrap() > 10);
     assert_eq!(
         (&v["version"], &v["frames"], &v["normal_bits"]),
-        (&3.into(), &true.into(), &2.into())
+        (
+            &qm::codec::container::VERSION.into(),
+            &true.into(),
+            &2.into()
+        )
     );
     // The cube's stream dips inside passes: holds, ordered and apart.
     let holds: Vec<[u64; 2]> = serde_json::from_value(v["holds"].clone()).unwrap();
@@ -160,7 +164,10 @@ fn info_json_reports_the_layout() {
     // Without holds: the same format, its list of holds empty.
     assert_eq!(
         (&w["version"], &w["holds"]),
-        (&3.into(), &serde_json::json!([]))
+        (
+            &qm::codec::container::VERSION.into(),
+            &serde_json::json!([])
+        )
     );
     // A fixed frame source on request, written into the header.
     let fixed = |level: &str, output: &str| {
