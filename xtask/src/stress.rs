@@ -1,4 +1,5 @@
-//! `stress DIR`: four generated meshes whose topology is hard on a codec.
+//! `stress DIR`: generated meshes whose topology or facets are hard on a
+//! codec: four large ones,
 //!
 //! - `genus12.obj`: a closed, wavy plate with a 4 x 3 grid of holes, genus
 //!   12, the zero set of a signed distance function extracted by marching
@@ -13,6 +14,13 @@
 //!   grid of a sum of sines inside a ragged outline with a few missing
 //!   patches and per-vertex noise; one connected manifold surface with
 //!   boundary.
+//!
+//!
+//! And six small faceted shapes, every edge a crease (the remesher sends
+//! them as their own triangles): `cube.obj` (12 triangles),
+//! `tetrahedron.obj`, `lprism.obj` (an L-shaped prism of 12 vertices),
+//! `cylinder.obj` (32 segments, capped), `torus24x12.obj` and
+//! `uvsphere8x16.obj`.
 //!
 //! Everything is deterministic: the randomness is a hash of fixed seeds.
 //! Each mesh's topology (Euler characteristic, components, boundary loops,
@@ -46,6 +54,12 @@ pub fn run(args: &[String]) -> Result<(), String> {
         ("holes100.obj", holed_sphere(SPHERE_LEVEL, 100)),
         ("parts300.obj", parts(300)),
         ("heightfield.obj", height_field(FIELD_SIDE)),
+        ("cube.obj", grid_box(1, DVec3::splat(0.5))),
+        ("tetrahedron.obj", tetrahedron()),
+        ("lprism.obj", l_prism()),
+        ("cylinder.obj", cylinder(32)),
+        ("torus24x12.obj", torus(24, 12, 0.3)),
+        ("uvsphere8x16.obj", uv_sphere(8, 16)),
     ];
     for (name, tris) in meshes {
         let t = Topology::of(&tris);
@@ -630,6 +644,58 @@ fn grid_box(n: u32, half: DVec3) -> Tris {
         }
     }
     t.orient(|c| c);
+    t
+}
+
+fn tetrahedron() -> Tris {
+    let mut t = Tris::default();
+    for p in [[1., 1., 1.], [1., -1., -1.], [-1., 1., -1.], [-1., -1., 1.]] {
+        t.push(DVec3::from_array(p));
+    }
+    t.faces = vec![[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]];
+    t.orient(|c| c);
+    t
+}
+
+/// An L-shaped prism: an outline of six corners, extruded, its caps in
+/// four triangles each.
+fn l_prism() -> Tris {
+    let outline = [(0., 0.), (2., 0.), (2., 1.), (1., 1.), (1., 2.), (0., 2.)];
+    let mut t = Tris::default();
+    for z in [0., 1.] {
+        for &(x, y) in &outline {
+            t.push(DVec3::new(x, y, z));
+        }
+    }
+    for i in 0..6 {
+        let j = (i + 1) % 6;
+        t.faces.push([i, j, j + 6]);
+        t.faces.push([i, j + 6, i + 6]);
+    }
+    for [a, b, c] in [[0, 2, 1], [0, 3, 2], [0, 5, 3], [3, 5, 4]] {
+        t.faces.push([a, b, c]);
+        t.faces.push([a + 6, c + 6, b + 6]);
+    }
+    t
+}
+
+/// A closed cylinder of radius 1 and height 2, `n` segments, each cap a fan
+/// around its centre.
+fn cylinder(n: u32) -> Tris {
+    let mut t = Tris::default();
+    for i in 0..n {
+        let a = TAU * i as f64 / n as f64;
+        t.push(DVec3::new(a.cos(), a.sin(), 0.0));
+        t.push(DVec3::new(a.cos(), a.sin(), 2.0));
+    }
+    let (low, high) = (t.push(DVec3::ZERO), t.push(DVec3::new(0.0, 0.0, 2.0)));
+    for i in 0..n {
+        let j = (i + 1) % n;
+        t.faces.push([2 * i, 2 * j, 2 * j + 1]);
+        t.faces.push([2 * i, 2 * j + 1, 2 * i + 1]);
+        t.faces.push([low, 2 * j, 2 * i]);
+        t.faces.push([high, 2 * i + 1, 2 * j + 1]);
+    }
     t
 }
 
