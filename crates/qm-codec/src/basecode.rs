@@ -700,15 +700,34 @@ fn corner_count(triangles: &[[u32; 3]]) -> usize {
 /// quantization step or so from them. Elsewhere the base values are
 /// lifted, not samples, and must stay as they are.
 pub(crate) fn snap_split(faces: &[[u32; 4]], values: &mut [[i32; 3]]) {
+    snap_within(faces, values, i64::MAX);
+}
+
+/// How far, in quantization steps, [`snap_within`] may move a value for the
+/// encoder: rounding the corners and the points between them apart is
+/// a step or so; a base whose midpoints and centres lie off the flat
+/// triangles (a split base at level 0 made otherwise than from the input's
+/// own triangles) is left alone.
+pub(crate) const SNAP_STEPS: i64 = 2;
+
+/// [`snap_split`] where no value moves more than `most` steps in any
+/// coordinate; else nothing changes. Whether it snapped.
+pub(crate) fn snap_within(faces: &[[u32; 4]], values: &mut [[i32; 3]], most: i64) -> bool {
     let Some(triangles) = split_of(faces, values.len(), crate::container::VERSION) else {
-        return;
+        return false;
     };
     let corners = corner_count(&triangles);
     let predictor = Predictor::new(faces, values.len(), Some(&triangles));
+    let mut snapped = values.to_vec();
     for v in corners..values.len() {
-        let p = predictor.predict(v, values);
-        values[v] = p.map(|x| x.clamp(i32::MIN.into(), i32::MAX.into()) as i32);
+        let p = predictor.predict(v, &snapped);
+        if (0..3).any(|i| (p[i] - values[v][i] as i64).abs() > most) {
+            return false;
+        }
+        snapped[v] = p.map(|x| x.clamp(i32::MIN.into(), i32::MAX.into()) as i32);
     }
+    values.copy_from_slice(&snapped);
+    true
 }
 
 /// Codes `faces` (corners below `values.len()`) and `values`, in format

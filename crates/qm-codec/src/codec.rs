@@ -246,11 +246,24 @@ pub fn compress_probed(
     }
     let quantizer = Quantizer::fit(mesh.positions(), options.bits)?;
     let mut quantized = quantizer.quantize_all(mesh.positions());
-    if mesh.layout().level() == 0 {
-        basecode::snap_split(mesh.layout().base().faces(), &mut quantized);
-    }
-    let compress_with =
-        |frames| compress_with(mesh.layout(), quantizer, &quantized, options, frames);
+    // A level-0 split base whose midpoints and centres lie on its flat
+    // triangles (the input's own triangles) is sent as its corners alone.
+    let implied = mesh.layout().level() == 0
+        && basecode::snap_within(
+            mesh.layout().base().faces(),
+            &mut quantized,
+            basecode::SNAP_STEPS,
+        );
+    let compress_with = |frames| {
+        compress_with(
+            mesh.layout(),
+            quantizer,
+            &quantized,
+            options,
+            frames,
+            implied,
+        )
+    };
     let mut compressed = match options.frames {
         Frames::Off => compress_with(0)?,
         Frames::ParentsFrom(level) => {
@@ -350,6 +363,7 @@ fn compress_with(
     quantized: &[Coord],
     options: &EncodeOptions,
     frames: u8,
+    implied: bool,
 ) -> Result<Compressed> {
     let mut data = quantized.to_vec();
     Lifting::new(layout, options.update)
@@ -359,16 +373,22 @@ fn compress_with(
     let coefs = tree.gather(&data);
     let base = layout.base();
     let values = &data[..base.vertex_count() as usize];
-    // A level-0 split base (the input's own triangles) sends its corners
-    // alone, high bits in the base section and the rest in the stream,
-    // plane by plane; the midpoints and centres follow from them.
-    let corners = (layout.level() == 0)
+    // An implied split base sends its corners alone, high bits in the base
+    // section and the rest in the stream, plane by plane; the midpoints and
+    // centres follow from them. Any other level-0 mesh keeps its base
+    // values whole in the base section, as before.
+    let corners = implied
         .then(|| basecode::split_corners(base.faces(), values.len()))
         .flatten();
     let implied = corners.is_some();
+    let most = if layout.level() == 0 && !implied {
+        0
+    } else {
+        basecode::noise_bits(base.faces(), values, container::VERSION, implied)
+    };
     let in_stream = Some(qm_ezw::BaseBits {
         values: &values[..corners.unwrap_or(values.len())],
-        most: basecode::noise_bits(base.faces(), values, container::VERSION, implied),
+        most,
     });
 
     let encoded = qm_ezw::encode(
@@ -828,6 +848,40 @@ mod tests {
     use super::*;
 
     use qm_lift::synthetic::bumpy_sphere as sphere;
+
+    /// Level 0: a split base on flat triangles is sent as its corners (the
+    /// midpoints and centres snapped, a step or two away); a split base off
+    /// them, and a base that is no split, keep every value whole in the
+    /// base section, as before the flag; all come back exactly.
+    #[test]
+    fn level_0_bases_implied_only_where_flat() {
+        let cases = [
+            (qm_lift::synthetic::flat_split_octahedron(), true),
+            (qm_lift::synthetic::bumpy_split_octahedron(0), false),
+            (sphere(0), false),
+        ];
+        for (i, (mesh, flat)) in cases.into_iter().enumerate() {
+            let c = compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
+            let d = decompress(&c.bytes, &DecodeOptions::default()).unwrap();
+            assert_eq!(d.values, c.quantized, "case {i}");
+            assert_eq!(d.header.implied(), flat, "case {i}");
+            let q = Quantizer::fit(mesh.positions(), 16).unwrap();
+            let exact = q.quantize_all(mesh.positions());
+            let moved = exact
+                .iter()
+                .zip(&c.quantized)
+                .flat_map(|(a, b)| (0..3).map(move |k| (a[k] - b[k]).abs()))
+                .max()
+                .unwrap();
+            if flat {
+                assert!((1..=2).contains(&moved), "case {i}: moved {moved}");
+                assert!(d.header.planes > 0 && d.header.stream_params().base_bits > 0);
+            } else {
+                assert_eq!(moved, 0, "case {i}");
+                assert_eq!((d.header.planes, d.header.flags), (0, 0), "case {i}");
+            }
+        }
+    }
 
     #[test]
     fn lossless_at_the_last_pass() {

@@ -152,8 +152,14 @@ impl Header {
     }
 }
 
-/// [`IMPLIED_SPLIT`] is for level 0 alone.
-fn check_implied(h: &Header) -> Result<()> {
+/// [`IMPLIED_SPLIT`] is for level 0 alone, from version 4 on (version 3
+/// reserved the bit).
+fn check_implied(h: &Header, version: u8) -> Result<()> {
+    if h.implied() && version < 4 {
+        return Err(Error::Malformed {
+            what: format!("unknown header flags {IMPLIED_SPLIT:#x} in version {version}"),
+        });
+    }
     if h.implied() && h.level != 0 {
         return Err(Error::Malformed {
             what: format!("implied base midpoints and centres at level {}", h.level),
@@ -226,7 +232,7 @@ pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u
             what: format!("reserved header flags {unknown:#x} set"),
         });
     }
-    check_implied(header)?;
+    check_implied(header, VERSION)?;
     if base.low_bits != low_bits {
         return Err(Error::Malformed {
             what: format!(
@@ -396,6 +402,7 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
     let header = Header { holds, ..header };
     let header_bytes = 7 + header_len + 4;
     check_header(&header, limits)?;
+    check_implied(&header, version)?;
 
     let base_len =
         u32::from_le_bytes(take(data, header_bytes, 4)?.try_into().expect("4 bytes")) as usize;
@@ -534,7 +541,6 @@ fn check_header(h: &Header, limits: &Limits) -> Result<()> {
             what: format!("unknown header flags {:#x}", h.flags & !KNOWN_FLAGS),
         });
     }
-    check_implied(h)?;
     let params = h.stream_params();
     let most = params
         .weighting

@@ -46,6 +46,32 @@ pub const OCTAHEDRON: [[u32; 3]; 8] = [
     [0, 4, 5],
 ];
 
+/// An octahedron's own eight flat triangles, split into three quads each,
+/// at level 0: corners at the unit axes, midpoints and centres on the flat
+/// triangles (what the remesher makes of a faceted input, scaled by 1000
+/// and moved off the origin so that quantization rounds all of them).
+pub fn flat_split_octahedron() -> SemiRegularMesh {
+    let axes = [
+        DVec3::X,
+        DVec3::Y,
+        DVec3::Z,
+        -DVec3::X,
+        -DVec3::Y,
+        -DVec3::Z,
+    ];
+    let split = split_triangles(&OCTAHEDRON);
+    let mut positions = vec![DVec3::ZERO; split.vertex_count as usize];
+    for (q, face) in split.faces.iter().enumerate() {
+        let t = OCTAHEDRON[q / 3].map(|c| axes[c as usize] * 1000.0 + 123.456);
+        positions[face[0] as usize] = t[q % 3];
+        positions[face[1] as usize] = (t[q % 3] + t[(q + 1) % 3]) / 2.0;
+        positions[face[2] as usize] = (t[0] + t[1] + t[2]) / 3.0;
+    }
+    let base = BaseMesh::new(split.vertex_count, split.faces).expect("a split is a valid base");
+    let layout = Layout::new(base, 0).expect("level 0");
+    SemiRegularMesh::new(layout, positions).expect("one position a sample")
+}
+
 /// The same relief on an octahedron whose triangles are split into three
 /// quads each ([`split_triangles`]), as the remesher's charts make bases:
 /// 24 base quads with corners of valence 4 and 3.

@@ -555,7 +555,7 @@ mod tests {
     /// decoder, which makes the midpoints and centres from the corners.
     #[test]
     fn a_level_0_file_streams_its_corners() {
-        let mesh = qm_codec::qm_lift::synthetic::bumpy_split_octahedron(0);
+        let mesh = qm_codec::qm_lift::synthetic::flat_split_octahedron();
         let bytes = compress(&mesh, &EncodeOptions::DEFAULT).unwrap().bytes;
         let decoder = Decoder::new(&bytes, &Limits::DEFAULT).unwrap();
         assert!(decoder.header().implied());
