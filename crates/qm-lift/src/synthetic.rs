@@ -46,11 +46,10 @@ pub const OCTAHEDRON: [[u32; 3]; 8] = [
     [0, 4, 5],
 ];
 
-/// An octahedron's own eight flat triangles, split into three quads each,
-/// at level 0: corners at the unit axes, midpoints and centres on the flat
-/// triangles (what the remesher makes of a faceted input, scaled by 1000
-/// and moved off the origin so that quantization rounds all of them).
-pub fn flat_split_octahedron() -> SemiRegularMesh {
+/// The octahedron's triangles split into three quads each
+/// ([`split_triangles`]), and each base vertex's place on them: corners at
+/// the unit axes, midpoints and centres on the flat triangles.
+fn split_octahedron() -> (BaseMesh, Vec<DVec3>) {
     let axes = [
         DVec3::X,
         DVec3::Y,
@@ -60,14 +59,23 @@ pub fn flat_split_octahedron() -> SemiRegularMesh {
         -DVec3::Z,
     ];
     let split = split_triangles(&OCTAHEDRON);
-    let mut positions = vec![DVec3::ZERO; split.vertex_count as usize];
+    let mut places = vec![DVec3::ZERO; split.vertex_count as usize];
     for (q, face) in split.faces.iter().enumerate() {
-        let t = OCTAHEDRON[q / 3].map(|c| axes[c as usize] * 1000.0 + 123.456);
-        positions[face[0] as usize] = t[q % 3];
-        positions[face[1] as usize] = (t[q % 3] + t[(q + 1) % 3]) / 2.0;
-        positions[face[2] as usize] = (t[0] + t[1] + t[2]) / 3.0;
+        let t = OCTAHEDRON[q / 3].map(|c| axes[c as usize]);
+        places[face[0] as usize] = t[q % 3];
+        places[face[1] as usize] = (t[q % 3] + t[(q + 1) % 3]) / 2.0;
+        places[face[2] as usize] = (t[0] + t[1] + t[2]) / 3.0;
     }
     let base = BaseMesh::new(split.vertex_count, split.faces).expect("a split is a valid base");
+    (base, places)
+}
+
+/// An octahedron's own eight flat triangles, split into three quads each,
+/// at level 0 (what the remesher makes of a faceted input), scaled by 1000
+/// and moved off the origin so that quantization rounds every value.
+pub fn flat_split_octahedron() -> SemiRegularMesh {
+    let (base, places) = split_octahedron();
+    let positions = places.iter().map(|&p| p * 1000.0 + 123.456).collect();
     let layout = Layout::new(base, 0).expect("level 0");
     SemiRegularMesh::new(layout, positions).expect("one position a sample")
 }
@@ -76,25 +84,8 @@ pub fn flat_split_octahedron() -> SemiRegularMesh {
 /// quads each ([`split_triangles`]), as the remesher's charts make bases:
 /// 24 base quads with corners of valence 4 and 3.
 pub fn bumpy_split_octahedron(level: u32) -> SemiRegularMesh {
-    let triangles = OCTAHEDRON;
-    let axes = [
-        DVec3::X,
-        DVec3::Y,
-        DVec3::Z,
-        -DVec3::X,
-        -DVec3::Y,
-        -DVec3::Z,
-    ];
-    let split = split_triangles(&triangles);
-    let mut corners = vec![DVec3::ZERO; split.vertex_count as usize];
-    for (q, face) in split.faces.iter().enumerate() {
-        let t = triangles[q / 3].map(|c| axes[c as usize]);
-        corners[face[0] as usize] = t[q % 3];
-        corners[face[1] as usize] = (t[q % 3] + t[(q + 1) % 3]) / 2.0;
-        corners[face[2] as usize] = (t[0] + t[1] + t[2]) / 3.0;
-    }
-    let base = BaseMesh::new(split.vertex_count, split.faces).expect("a split is a valid base");
-    bumpy(base, |v| corners[v as usize], level)
+    let (base, places) = split_octahedron();
+    bumpy(base, |v| places[v as usize], level)
 }
 
 /// `base` refined `level` times, each face bilinear between its corners'
