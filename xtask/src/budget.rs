@@ -73,9 +73,19 @@ pub fn run(args: &[String]) -> Result<(), String> {
             .with_parent_frames_from(header.parent_frames_from())
             .forward(&mut data);
         let tree = ZeroTree::new(layout);
-        // The stream's own base bits, as the encoder chose them.
+        // The stream's own base bits, as the encoder chose them: with the
+        // split implied, those of the corners alone (the first vertices).
+        let vertices = layout.base().vertex_count();
+        let coded = match qm::lift::unsplit(layout.base().faces(), vertices) {
+            Some(triangles) if header.implied() => triangles
+                .iter()
+                .flatten()
+                .max()
+                .map_or(0, |&c| c as usize + 1),
+            _ => vertices as usize,
+        };
         let base = qm::ezw::BaseBits {
-            values: &data[..layout.base().vertex_count() as usize],
+            values: &data[..coded],
             most: header.stream_params().base_bits,
         };
         let budgets = qm::ezw::bit_budget(
