@@ -163,16 +163,8 @@ fn messy_input_remeshes() {
 /// file smaller than its remesh's.
 #[test]
 fn a_faceted_input_is_sent_as_itself() {
-    let a = torus(12, 6);
-    let mut positions = a.positions.clone();
-    let mut faces: Vec<[u32; 3]> = a.faces().map(|f| [f[0], f[1], f[2]]).collect();
-    let offset = positions.len() as u32;
-    positions.extend(a.positions.iter().map(|p| *p + DVec3::new(10.0, 0.0, 0.0)));
-    faces.extend(
-        a.faces()
-            .map(|f| [f[0] + offset, f[1] + offset, f[2] + offset]),
-    );
-    let input = PolyMesh::from_faces(positions, &faces);
+    let mut input = torus(12, 6);
+    input.append(&torus(12, 6), DVec3::new(10.0, 0.0, 0.0));
     let options = qm::Options::default();
     let encoded = qm::encode(&input, &options).unwrap();
     let report = encoded.remeshed.as_ref().unwrap();

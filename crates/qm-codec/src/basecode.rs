@@ -676,14 +676,14 @@ fn split_of(faces: &[[u32; 4]], vertices: usize, version: u8) -> Option<Vec<[u32
         .flatten()
 }
 
-/// How many corners a split base (`faces` over `vertices`, version 3) has:
-/// its first vertices; `None` for a base that is no split.
-pub(crate) fn split_corners(faces: &[[u32; 4]], vertices: usize) -> Option<usize> {
-    let triangles = split_of(faces, vertices, crate::container::VERSION)?;
-    Some(corner_count(&triangles))
+/// The triangles `faces` over `vertices` are the split of, in this
+/// build's version; `None` for a base that is no split.
+pub(crate) fn split_triangles_of(faces: &[[u32; 4]], vertices: usize) -> Option<Vec<[u32; 3]>> {
+    split_of(faces, vertices, crate::container::VERSION)
 }
 
-fn corner_count(triangles: &[[u32; 3]]) -> usize {
+/// How many corners a split base of `triangles` has: its first vertices.
+pub(crate) fn corner_count(triangles: &[[u32; 3]]) -> usize {
     triangles
         .iter()
         .flatten()
@@ -691,33 +691,30 @@ fn corner_count(triangles: &[[u32; 3]]) -> usize {
         .map_or(0, |&c| c as usize + 1)
 }
 
-/// Sets the edge midpoints and centres of a split base (`faces`, version 3)
-/// to their predictions, so that they cost next to nothing; does nothing to
-/// other bases. For a mesh of level 0 alone, whose base is all there is
-/// (the remesher's exact base, the input's own triangles): its midpoints
-/// and centres lie on the flat triangles between the corners, and their
-/// predictions are those points rounded from the rounded corners, a
-/// quantization step or so from them. Elsewhere the base values are
-/// lifted, not samples, and must stay as they are.
-pub(crate) fn snap_split(faces: &[[u32; 4]], values: &mut [[i32; 3]]) {
-    snap_within(faces, values, i64::MAX);
-}
-
-/// How far, in quantization steps, [`snap_within`] may move a value for the
-/// encoder: rounding the corners and the points between them apart is
-/// a step or so; a base whose midpoints and centres lie off the flat
-/// triangles (a split base at level 0 made otherwise than from the input's
-/// own triangles) is left alone.
+/// How far, in quantization steps, the encoder lets [`snap_split`] move a
+/// value: rounding the corners and the points between them apart is a step
+/// or so; a base whose midpoints and centres lie off the flat triangles (a
+/// split base at level 0 made otherwise than from the input's own
+/// triangles) is left alone.
 pub(crate) const SNAP_STEPS: i64 = 2;
 
-/// [`snap_split`] where no value moves more than `most` steps in any
-/// coordinate; else nothing changes. Whether it snapped.
-pub(crate) fn snap_within(faces: &[[u32; 4]], values: &mut [[i32; 3]], most: i64) -> bool {
-    let Some(triangles) = split_of(faces, values.len(), crate::container::VERSION) else {
-        return false;
-    };
-    let corners = corner_count(&triangles);
-    let predictor = Predictor::new(faces, values.len(), Some(&triangles));
+/// Sets the edge midpoints and centres of a split base (`faces`, the split
+/// of `triangles`) to their predictions, so that they cost next to nothing,
+/// unless one would move more than `most` steps in some coordinate (then
+/// nothing changes); whether it did. For a mesh of level 0 alone, whose
+/// base is all there is (the remesher's exact base, the input's own
+/// triangles): its midpoints and centres lie on the flat triangles between
+/// the corners, and their predictions are those points rounded from the
+/// rounded corners. Elsewhere the base values are lifted, not samples, and
+/// must stay as they are.
+pub(crate) fn snap_split(
+    faces: &[[u32; 4]],
+    triangles: &[[u32; 3]],
+    values: &mut [[i32; 3]],
+    most: i64,
+) -> bool {
+    let corners = corner_count(triangles);
+    let predictor = Predictor::new(faces, values.len(), Some(triangles));
     let mut snapped = values.to_vec();
     for v in corners..values.len() {
         let p = predictor.predict(v, &snapped);
@@ -947,19 +944,15 @@ mod tests {
 
     /// Snapped to their predictions, a split base's midpoints and centres
     /// cost next to nothing, move by a step or two at most, and come back
-    /// exactly; a base that is no split is left as it is.
+    /// exactly; a base that is no split is none to snap.
     #[test]
     fn snapped_midpoints_and_centres_cost_next_to_nothing() {
         let (faces, values, triangles) = split_grid(16);
-        let corners = triangles
-            .iter()
-            .flatten()
-            .max()
-            .map_or(0, |&c| c as usize + 1);
+        let corners = corner_count(&triangles);
         // The grid's midpoints and centres off the flat triangles between
         // the corners by up to 1 in 4000: what snapping moves.
         let mut snapped = values.clone();
-        snap_split(&faces, &mut snapped);
+        assert!(snap_split(&faces, &triangles, &mut snapped, i64::MAX));
         assert_eq!(snapped[..corners], values[..corners]);
         let moved = (corners..values.len())
             .flat_map(|v| (0..3).map(move |i| (v, i)))
@@ -980,9 +973,7 @@ mod tests {
         let got = decode(&after, faces.len(), values.len(), 0, 3, false).unwrap();
         assert_eq!(got.values, snapped);
         let (quads, grid) = grid(4);
-        let mut same = grid.clone();
-        snap_split(&quads, &mut same);
-        assert_eq!(same, grid);
+        assert!(split_triangles_of(&quads, grid.len()).is_none());
         // Implied, only the corners are coded; a base that is no split
         // cannot be implied.
         let corners_only = encode(&faces, &snapped, 3, true);

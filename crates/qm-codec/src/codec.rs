@@ -248,12 +248,12 @@ pub fn compress_probed(
     let mut quantized = quantizer.quantize_all(mesh.positions());
     // A level-0 split base whose midpoints and centres lie on its flat
     // triangles (the input's own triangles) is sent as its corners alone.
-    let implied = mesh.layout().level() == 0
-        && basecode::snap_within(
-            mesh.layout().base().faces(),
-            &mut quantized,
-            basecode::SNAP_STEPS,
-        );
+    let base = mesh.layout().base();
+    let corners = (mesh.layout().level() == 0)
+        .then(|| basecode::split_triangles_of(base.faces(), base.vertex_count() as usize))
+        .flatten()
+        .filter(|t| basecode::snap_split(base.faces(), t, &mut quantized, basecode::SNAP_STEPS))
+        .map(|t| basecode::corner_count(&t));
     let compress_with = |frames| {
         compress_with(
             mesh.layout(),
@@ -261,7 +261,7 @@ pub fn compress_probed(
             &quantized,
             options,
             frames,
-            implied,
+            corners,
         )
     };
     let mut compressed = match options.frames {
@@ -363,7 +363,7 @@ fn compress_with(
     quantized: &[Coord],
     options: &EncodeOptions,
     frames: u8,
-    implied: bool,
+    corners: Option<usize>,
 ) -> Result<Compressed> {
     let mut data = quantized.to_vec();
     Lifting::new(layout, options.update)
@@ -373,13 +373,10 @@ fn compress_with(
     let coefs = tree.gather(&data);
     let base = layout.base();
     let values = &data[..base.vertex_count() as usize];
-    // An implied split base sends its corners alone, high bits in the base
-    // section and the rest in the stream, plane by plane; the midpoints and
-    // centres follow from them. Any other level-0 mesh keeps its base
-    // values whole in the base section, as before.
-    let corners = implied
-        .then(|| basecode::split_corners(base.faces(), values.len()))
-        .flatten();
+    // An implied split base (its `corners`) sends its corners alone, high
+    // bits in the base section and the rest in the stream, plane by plane;
+    // the midpoints and centres follow from them. Any other level-0 mesh
+    // keeps its base values whole in the base section, as before.
     let implied = corners.is_some();
     let most = if layout.level() == 0 && !implied {
         0
@@ -699,9 +696,10 @@ pub struct Decoder {
     /// The base section's values: high parts when the stream holds low bits
     /// (with the split implied, those of the corners, and zeros).
     base_values: Vec<Coord>,
-    /// With the split implied ([`container::IMPLIED_SPLIT`]): how many
-    /// corners have values, the other base values being made from them.
-    corners: Option<usize>,
+    /// With the split implied ([`container::IMPLIED_SPLIT`]): the base's
+    /// triangles, whose corners alone have values, the other base values
+    /// being made from them.
+    split: Option<Vec<[u32; 3]>>,
     layout: Layout,
     tree: ZeroTree,
     quantizer: Quantizer,
@@ -739,14 +737,14 @@ impl Decoder {
             step: h.step,
         };
         // The base section's decoder checked that an implied base is a split.
-        let corners = h
+        let split = h
             .implied()
-            .then(|| basecode::split_corners(layout.base().faces(), h.base_vertices as usize))
+            .then(|| basecode::split_triangles_of(layout.base().faces(), h.base_vertices as usize))
             .flatten();
         Ok(Decoder {
             checkpoint: std::cell::RefCell::new(None),
             header: h,
-            corners,
+            split,
             base_values: c.base.values,
             layout,
             tree,
@@ -801,8 +799,8 @@ impl Decoder {
         resume: bool,
     ) -> DecodeStatus {
         let mut params = self.header.stream_params();
-        if let Some(corners) = self.corners {
-            params.base_values = corners as u32;
+        if let Some(triangles) = &self.split {
+            params.base_values = basecode::corner_count(triangles) as u32;
         }
         let stream = &stream[..self.header.hold_cut(stream.len())];
         let decoded = if resume {
@@ -824,9 +822,10 @@ impl Decoder {
                 *v = std::array::from_fn(|c| (v[c] << k) + low[c]);
             }
         }
-        if self.corners.is_some() {
+        if let Some(triangles) = &self.split {
             let base = self.layout.base();
-            basecode::snap_split(base.faces(), &mut values[..base.vertex_count() as usize]);
+            let values = &mut values[..base.vertex_count() as usize];
+            basecode::snap_split(base.faces(), triangles, values, i64::MAX);
         }
         decoded.scatter(self.tree.samples(), values);
         let level = level.map_or(self.layout.level(), |l| l.min(self.layout.level()));

@@ -60,8 +60,35 @@ impl PolyMesh {
         (0..self.face_count()).map(|k| self.face(k))
     }
 
+    /// Appends `other`'s vertices and faces, moved by `offset` (its faces
+    /// renumbered to its vertices here).
+    pub fn append(&mut self, other: &PolyMesh, offset: DVec3) {
+        let first = self.positions.len() as u32;
+        self.positions
+            .extend(other.positions.iter().map(|&p| p + offset));
+        for face in other.faces() {
+            let corners: Vec<u32> = face.iter().map(|&v| v + first).collect();
+            self.push_face(&corners);
+        }
+    }
+
     /// Whether every face has exactly `k` corners (false for a mesh with no faces).
     pub fn all_faces_have(&self, k: usize) -> bool {
         self.face_count() > 0 && self.faces().all(|f| f.len() == k)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn append_renumbers_and_moves() {
+        let triangle = PolyMesh::from_faces(vec![DVec3::ZERO, DVec3::X, DVec3::Y], &[[0, 1, 2]]);
+        let mut mesh = triangle.clone();
+        mesh.append(&triangle, DVec3::Z);
+        assert_eq!(mesh.face_count(), 2);
+        assert_eq!(mesh.face(1), &[3, 4, 5]);
+        assert_eq!(mesh.positions[4], DVec3::new(1.0, 0.0, 1.0));
     }
 }

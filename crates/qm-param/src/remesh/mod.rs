@@ -285,77 +285,101 @@ pub struct NormalReport {
 /// With [`BaseDomain::Auto`] both base domains are tried and measured: the
 /// simplified one is taken where one square per part fails or measures at
 /// least [`CLEARLY_BETTER_DB`] worse, and the report says why
-/// ([`RemeshReport::fallback`]).
+/// ([`RemeshReport::fallback`]); a small input whose remesh is not faithful
+/// is taken as its own triangles ([`BaseDomain::Input`]).
 pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     let input_triangles = mesh.faces().map(|f| f.len().saturating_sub(2) as u64).sum();
     check_memory(input_triangles, 0, options.max_memory)?;
+    if options.domain == BaseDomain::Input {
+        if let Some(level) = options.level.filter(|&l| l != 0) {
+            return Err(Error::remesh(RemeshFailure::Step(format!(
+                "the input's own triangles are a base of level 0, not {level}"
+            ))));
+        }
+        return remesh_input(mesh);
+    }
     let cleaned = clean(mesh)?;
     match options.domain {
         BaseDomain::Square => remesh_square(cleaned, input_triangles, options),
         BaseDomain::Charts => remesh_charts(mesh, cleaned, input_triangles, options),
-        BaseDomain::Input => {
-            if let Some(level) = options.level.filter(|&l| l != 0) {
-                return Err(Error::remesh(RemeshFailure::Step(format!(
-                    "the input's own triangles are a base of level 0, not {level}"
-                ))));
-            }
-            let mut exact = exact::remesh_exact(clean_keeping_sheets(mesh)?)?;
-            exact.report.psnr = Some(measure(mesh, &exact.mesh)?);
-            Ok(exact)
-        }
-        BaseDomain::Auto => {
+        // Auto (Input went above).
+        _ => {
             let triangles: usize = cleaned.components.iter().map(|c| c.triangles.len()).sum();
+            let remeshed = remesh_auto(mesh, cleaned, input_triangles, options);
             // A level asked for is a remesh asked for.
             if triangles > EXACT_MOST_TRIANGLES || options.level.is_some() {
-                return remesh_auto(mesh, cleaned, input_triangles, options);
-            }
-            let remeshed = remesh_auto(mesh, cleaned, input_triangles, options);
-            let psnr = match &remeshed {
-                // A base of as many quads as the input's own triangles make
-                // is those triangles, and levels over them only add samples
-                // of the same flat faces (a cube: 722 bytes at level 1
-                // through charts, 113 at level 0).
-                Ok(r)
-                    if r.report
-                        .components
-                        .iter()
-                        .map(|c| c.base_quads)
-                        .sum::<usize>()
-                        >= 3 * triangles =>
-                {
-                    f64::NEG_INFINITY
-                }
-                Ok(r) => match r.report.psnr {
-                    Some(psnr) if psnr < FAITHFUL_DB => psnr,
-                    _ => return remeshed,
-                },
-                // Refused for memory: the user's limit stands.
-                Err(Error::Memory { .. }) => return remeshed,
-                Err(_) => f64::NEG_INFINITY,
-            };
-            // Where the input's triangles make no base either (no area
-            // left, say), the remesh's own failure is the one to report.
-            let Ok(mut exact) = clean_keeping_sheets(mesh).and_then(exact::remesh_exact) else {
                 return remeshed;
-            };
-            let exact_psnr = measure(mesh, &exact.mesh)?;
-            exact.report.psnr = Some(exact_psnr);
-            exact.report.fallback = Some(match remeshed {
-                // Not clearly better: the remesh streams, and costs less.
-                Ok(r) if exact_psnr < psnr + CLEARLY_BETTER_DB => return Ok(r),
-                Ok(r) if psnr == f64::NEG_INFINITY => format!(
+            }
+            remesh_or_input(mesh, remeshed, triangles)
+        }
+    }
+}
+
+/// [`BaseDomain::Input`]: the input's own triangles, zero-thickness sheets
+/// kept, measured.
+fn remesh_input(mesh: &PolyMesh) -> Result<Remeshed> {
+    let mut exact = exact::remesh_exact(clean_keeping_sheets(mesh)?)?;
+    exact.report.psnr = Some(measure(mesh, &exact.mesh)?);
+    Ok(exact)
+}
+
+/// `auto`'s remesh of a small input (`triangles` after clean-up), or the
+/// input's own triangles where the remesh failed (not for memory), measures
+/// below [`FAITHFUL_DB`] and [`CLEARLY_BETTER_DB`] below them, or took them
+/// as its base anyway.
+fn remesh_or_input(
+    mesh: &PolyMesh,
+    remeshed: Result<Remeshed>,
+    triangles: usize,
+) -> Result<Remeshed> {
+    let why = match &remeshed {
+        // A base of as many quads as the input's own triangles make is
+        // those triangles, and levels over them only add samples of the
+        // same flat faces (a cube: 722 bytes at level 1 through charts, 113
+        // at level 0).
+        Ok(r)
+            if r.report
+                .components
+                .iter()
+                .map(|c| c.base_quads)
+                .sum::<usize>()
+                >= 3 * triangles =>
+        {
+            (
+                f64::NEG_INFINITY,
+                format!(
                     "the remesh through {} took the input's own triangles as its base",
                     r.report.domain
                 ),
-                Ok(r) => format!(
+            )
+        }
+        Ok(r) => match r.report.psnr {
+            Some(psnr) if psnr < FAITHFUL_DB => (
+                psnr,
+                format!(
                     "the remesh through {} measured {psnr:.1} dB",
                     r.report.domain
                 ),
-                Err(e) => format!("remeshing failed: {e}"),
-            });
-            Ok(exact)
-        }
+            ),
+            _ => return remeshed,
+        },
+        // Refused for memory: the user's limit stands.
+        Err(Error::Memory { .. }) => return remeshed,
+        Err(e) => (f64::NEG_INFINITY, format!("remeshing failed: {e}")),
+    };
+    // Where the input's triangles make no base either (no area left, say),
+    // the remesh's own failure is the one to report.
+    let Ok(mut exact) = remesh_input(mesh) else {
+        return remeshed;
+    };
+    let (psnr, why) = why;
+    // Not clearly better: the remesh streams, and costs less.
+    if remeshed.is_ok() && exact.report.psnr.unwrap_or(f64::NEG_INFINITY) < psnr + CLEARLY_BETTER_DB
+    {
+        return remeshed;
     }
+    exact.report.fallback = Some(why);
+    Ok(exact)
 }
 
 /// The most input triangles [`BaseDomain::Auto`] takes as the base itself
@@ -1369,22 +1393,12 @@ mod tests {
         PolyMesh::from_faces(r.mesh.positions().to_vec(), &layout.quads(layout.level()))
     }
 
-    /// `auto` makes the same remesh whether both remeshes run at once or
-    /// (under a memory limit that holds one at a time) in turn.
     /// Two parts through charts make one split base, numbered as such, so
     /// that the base coder sends it as triangles.
     #[test]
     fn parts_through_charts_make_one_split() {
-        let a = sphere(12);
-        let mut positions = a.positions.clone();
-        let mut faces: Vec<[u32; 3]> = a.faces().map(|f| [f[0], f[1], f[2]]).collect();
-        let offset = positions.len() as u32;
-        positions.extend(a.positions.iter().map(|p| *p + DVec3::new(5.0, 0.0, 0.0)));
-        faces.extend(
-            a.faces()
-                .map(|f| [f[0] + offset, f[1] + offset, f[2] + offset]),
-        );
-        let input = PolyMesh::from_faces(positions, &faces);
+        let mut input = sphere(12);
+        input.append(&sphere(12), DVec3::new(5.0, 0.0, 0.0));
         let options = RemeshOptions::DEFAULT.with_domain(BaseDomain::Charts);
         let r = remesh(&input, &options).unwrap();
         assert_eq!(r.report.components.len(), 2);
@@ -1393,6 +1407,8 @@ mod tests {
         assert_eq!(3 * triangles.len(), base.faces().len());
     }
 
+    /// `auto` makes the same remesh whether both remeshes run at once or
+    /// (under a memory limit that holds one at a time) in turn.
     #[test]
     fn auto_is_the_same_at_once_and_in_turn() {
         let mesh = sphere(40);
