@@ -20,8 +20,8 @@
 //! vertex moves down the map's stretch (`relax_stretch`), never folding a
 //! triangle, so that sampling density follows the surface.
 
-use std::cell::Cell;
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use qm_lift::glam::{DMat2, DVec2, DVec3};
 use qm_lift::{BaseMesh, Layout, split_triangles};
@@ -898,18 +898,57 @@ impl Domain {
     }
 }
 
+/// The map of the input onto the base domain, perhaps with one vertex
+/// moved to a trial location (a relaxation's probe), so that vertices of
+/// one colour can probe their moves side by side.
+#[derive(Clone, Copy)]
+struct Map<'a> {
+    base: &'a Base,
+    moved: u32,
+    to: Location,
+}
+
+impl<'a> Map<'a> {
+    fn new(base: &'a Base) -> Map<'a> {
+        Map {
+            base,
+            moved: u32::MAX,
+            to: Location::Vertex,
+        }
+    }
+
+    /// This map with input vertex `p` at `to`.
+    fn moving(self, p: u32, to: Location) -> Map<'a> {
+        Map {
+            moved: p,
+            to,
+            ..self
+        }
+    }
+
+    fn location(&self, v: u32) -> Location {
+        if v == self.moved {
+            self.to
+        } else {
+            self.base.location[v as usize]
+        }
+    }
+}
+
 /// The place of input vertex `v` in the chart of `star` (centred on `a`),
 /// if the map puts it in the star's own triangles (or, `wide`, in those
 /// unfolded around it too).
-fn place_in(star: &Star, a: u32, v: u32, base: &Base, wide: bool) -> Option<DVec2> {
+fn place_in(star: &Star, a: u32, v: u32, map: Map, wide: bool) -> Option<DVec2> {
     let star = star.drawn(wide);
-    match base.location[v as usize] {
+    match map.location(v) {
         Location::Vertex => {
             if v == a {
                 return Some(DVec2::ZERO);
             }
             star.iter().find_map(|(t, place)| {
-                let c = base.triangles[*t as usize].iter().position(|&w| w == v)?;
+                let c = map.base.triangles[*t as usize]
+                    .iter()
+                    .position(|&w| w == v)?;
                 Some(place[c])
             })
         }
@@ -982,7 +1021,7 @@ fn untangle_vertex(
     for c in corners {
         let a = tri[c];
         let star = &stars[&a];
-        let place = |w: u32| place_in(star, a, w, base, false);
+        let place = |w: u32| place_in(star, a, w, Map::new(base), false);
         // Turned-over triangles, and their total area turned over: a move
         // that turns none back but less area over is progress too, the way
         // a knot of several vertices comes undone over the sweeps.
@@ -1082,7 +1121,7 @@ pub(super) fn untangle_knots(
     let n = mesh.positions.len();
     let folded_now = |knots: &Knots, base: &Base| -> Vec<u32> {
         (0..mesh.triangles.len() as u32)
-            .filter(|&t| knots.folded(base, t))
+            .filter(|&t| knots.folded(Map::new(base), t))
             .collect()
     };
     let mut folded = folded_now(&knots, base);
@@ -1160,7 +1199,7 @@ pub(super) fn untangle_knots(
 pub(super) fn relax_stretch(mesh: &TriMesh, base: &mut Base, domain: &Domain, sweeps: usize) {
     let mut knots = Knots::new(mesh, domain);
     let mut ratios: Vec<f64> = (0..mesh.triangles.len() as u32)
-        .map(|t| knots.area_ratio(base, t))
+        .map(|t| knots.area_ratio(Map::new(base), t))
         .filter(|r| *r > 0.0)
         .collect();
     if ratios.is_empty() {
@@ -1221,8 +1260,12 @@ struct Knots<'a> {
     /// the triangle's area) against this scale of the map's determinant,
     /// not the conformal distortion.
     stretch: Option<(f64, Vec<f64>)>,
-    /// Per input vertex: the step its last move took, 0 before any.
-    steps: Vec<Cell<f64>>,
+    /// Per input vertex: the step its last move took (an `f64`'s bits), 0
+    /// before any.
+    steps: Vec<AtomicU64>,
+    /// Per input vertex: a colour no neighbour has, so that the vertices of
+    /// one colour move side by side.
+    colours: Vec<u32>,
 }
 
 impl<'a> Knots<'a> {
@@ -1253,24 +1296,49 @@ impl<'a> Knots<'a> {
             shapes,
             penalty: FOLD_PENALTY,
             stretch: None,
-            steps: vec![Cell::new(0.0); mesh.positions.len()],
+            steps: (0..mesh.positions.len())
+                .map(|_| AtomicU64::new(0))
+                .collect(),
+            colours: colours(mesh, &domain.around),
         }
     }
 
     /// Gauss-Seidel sweeps over `region` (the vertices marked `inside`),
-    /// each after the first over the neighbours of those that moved.
+    /// each after the first over the neighbours of those that moved. The
+    /// vertices of one colour move in parallel (none is another's
+    /// neighbour, so none reads what another writes), the colours in turn:
+    /// the result does not depend on the threads.
     fn sweep(&self, base: &mut Base, region: &[u32], inside: &[bool], sweeps: usize) {
         let mut active = region.to_vec();
+        let mut classes: Vec<Vec<u32>> = Vec::new();
         for _ in 0..sweeps {
-            let mut next = Vec::new();
+            for class in &mut classes {
+                class.clear();
+            }
             for &p in &active {
-                if self.relax(base, p) {
-                    for &t in &self.domain.around[p as usize] {
-                        next.extend(
-                            self.mesh.triangles[t as usize]
-                                .into_iter()
-                                .filter(|&w| inside[w as usize] && self.movable(base, w)),
-                        );
+                let c = self.colours[p as usize] as usize;
+                if classes.len() <= c {
+                    classes.resize_with(c + 1, Vec::new);
+                }
+                classes[c].push(p);
+            }
+            let mut next = Vec::new();
+            for class in &classes {
+                let moves: Vec<(u32, Location, bool)> = class
+                    .par_iter()
+                    .with_min_len(64)
+                    .filter_map(|&p| self.relax(base, p).map(|(l, wake)| (p, l, wake)))
+                    .collect();
+                for (p, l, wake) in moves {
+                    base.location[p as usize] = l;
+                    if wake {
+                        for &t in &self.domain.around[p as usize] {
+                            next.extend(
+                                self.mesh.triangles[t as usize]
+                                    .into_iter()
+                                    .filter(|&w| inside[w as usize] && self.movable(base, w)),
+                            );
+                        }
                     }
                 }
             }
@@ -1289,13 +1357,13 @@ impl<'a> Knots<'a> {
 
     /// The base vertices whose charts may draw triangle `t`: the corners
     /// of its corners' base triangles.
-    fn charts(&self, base: &Base, t: u32) -> impl Iterator<Item = u32> + use<> {
+    fn charts(&self, map: Map, t: u32) -> impl Iterator<Item = u32> + use<> {
         let mut out = [u32::MAX; 9];
         let mut len = 0;
         for v in self.mesh.triangles[t as usize] {
-            let corners = match base.location[v as usize] {
+            let corners = match map.location(v) {
                 Location::Vertex => [v, v, v],
-                Location::Face(f, _) => base.triangles[f as usize],
+                Location::Face(f, _) => map.base.triangles[f as usize],
             };
             for a in corners {
                 if !out[..len].contains(&a) {
@@ -1308,22 +1376,22 @@ impl<'a> Knots<'a> {
     }
 
     /// Triangle `t`'s drawings, in every chart that draws it whole.
-    fn drawings(&self, base: &Base, t: u32) -> impl Iterator<Item = [DVec2; 3]> {
+    fn drawings(&self, map: Map, t: u32) -> impl Iterator<Item = [DVec2; 3]> {
         let tri = self.mesh.triangles[t as usize];
-        self.charts(base, t).filter_map(move |a| {
+        self.charts(map, t).filter_map(move |a| {
             let star = &self.domain.stars[&a];
             Some([
-                place_in(star, a, tri[0], base, true)?,
-                place_in(star, a, tri[1], base, true)?,
-                place_in(star, a, tri[2], base, true)?,
+                place_in(star, a, tri[0], map, true)?,
+                place_in(star, a, tri[1], map, true)?,
+                place_in(star, a, tri[2], map, true)?,
             ])
         })
     }
 
     /// Triangle `t`'s drawn area over its input area, in the chart that
     /// draws it largest (negative if every chart draws it turned over).
-    fn area_ratio(&self, base: &Base, t: u32) -> f64 {
-        self.drawings(base, t)
+    fn area_ratio(&self, map: Map, t: u32) -> f64 {
+        self.drawings(map, t)
             .map(|[p, q, r]| {
                 (DMat2::from_cols(q - p, r - p) * self.shapes[t as usize]).determinant()
             })
@@ -1332,12 +1400,12 @@ impl<'a> Knots<'a> {
 
     /// Whether every chart that draws `t` draws it turned over, as sampling
     /// counts a fold (triangles held between feature lines aside).
-    fn folded(&self, base: &Base, t: u32) -> bool {
+    fn folded(&self, map: Map, t: u32) -> bool {
         if self.held(t) {
             return false;
         }
         let mut drawn = false;
-        for [p, q, r] in self.drawings(base, t) {
+        for [p, q, r] in self.drawings(map, t) {
             if drawn_right(p, q, r) {
                 return false;
             }
@@ -1348,10 +1416,10 @@ impl<'a> Knots<'a> {
 
     /// Triangle `t`'s energy: [`Self::stretch_energy`] when relaxing the
     /// stretch, else [`Self::untangle_energy`].
-    fn energy(&self, base: &Base, t: u32) -> f64 {
+    fn energy(&self, map: Map, t: u32) -> f64 {
         match &self.stretch {
-            Some((scale, area)) => self.stretch_energy(base, t, *scale, area[t as usize]),
-            None => self.untangle_energy(base, t),
+            Some((scale, area)) => self.stretch_energy(map, t, *scale, area[t as usize]),
+            None => self.untangle_energy(map, t),
         }
     }
 
@@ -1364,10 +1432,10 @@ impl<'a> Knots<'a> {
 
     /// Triangle `t`'s least distortion over the charts that draw it, plus
     /// the penalty if it is folded (or drawn in none).
-    fn untangle_energy(&self, base: &Base, t: u32) -> f64 {
+    fn untangle_energy(&self, map: Map, t: u32) -> f64 {
         let mut best = f64::INFINITY;
         let mut right = self.held(t);
-        for [p, q, r] in self.drawings(base, t) {
+        for [p, q, r] in self.drawings(map, t) {
             right |= drawn_right(p, q, r);
             let j = DMat2::from_cols(q - p, r - p) * self.shapes[t as usize];
             let det = j.determinant();
@@ -1388,11 +1456,11 @@ impl<'a> Knots<'a> {
     /// worst, plus [`PLEAT_PENALTY`] if a chart draws it turned over.
     /// Infinite if every chart does, so relaxing never folds a triangle (nor
     /// lays one flat in every chart).
-    fn stretch_energy(&self, base: &Base, t: u32, scale: f64, area: f64) -> f64 {
+    fn stretch_energy(&self, map: Map, t: u32, scale: f64, area: f64) -> f64 {
         let held = self.held(t);
         let (mut right, mut pleat) = (held, false);
         let mut worst: Option<f64> = None;
-        for [p, q, r] in self.drawings(base, t) {
+        for [p, q, r] in self.drawings(map, t) {
             let this_right = drawn_right(p, q, r);
             right |= this_right;
             pleat |= !this_right;
@@ -1416,10 +1484,10 @@ impl<'a> Knots<'a> {
         }
     }
 
-    fn ring_energy(&self, base: &Base, p: u32) -> f64 {
+    fn ring_energy(&self, map: Map, p: u32) -> f64 {
         self.domain.around[p as usize]
             .iter()
-            .map(|&t| self.energy(base, t))
+            .map(|&t| self.energy(map, t))
             .sum()
     }
 
@@ -1427,45 +1495,44 @@ impl<'a> Knots<'a> {
     /// triangles' energy, proposed in the chart of the nearest corner of
     /// its base triangle (with the triangles unfolded around it), and, where
     /// one of its triangles is folded, the kernel of its ring there. Returns
-    /// whether it moved.
-    fn relax(&self, base: &mut Base, p: u32) -> bool {
+    /// its new location and whether the move is worth waking its
+    /// neighbours for; reads the map and writes nothing but its step.
+    fn relax(&self, base: &Base, p: u32) -> Option<(Location, bool)> {
         let Location::Face(f, b) = base.location[p as usize] else {
-            return false;
+            return None;
         };
+        let map = Map::new(base);
         let tri = base.triangles[f as usize];
         let c = (0..3).max_by(|&i, &j| b[i].total_cmp(&b[j])).unwrap_or(0);
         let a = tri[c];
         let star = &self.domain.stars[&a];
-        let Some(start) = place_in(star, a, p, base, true) else {
-            return false;
-        };
+        let start = place_in(star, a, p, map, true)?;
         // The ring's size, for steps.
         let mut size = 0.0f64;
         for &t in &self.domain.around[p as usize] {
             for w in self.mesh.triangles[t as usize] {
-                if let Some(x) = place_in(star, a, w, base, true) {
+                if let Some(x) = place_in(star, a, w, map, true) {
                     size = size.max((x - start).length());
                 }
             }
         }
         if size <= 0.0 {
-            return false;
+            return None;
         }
-        let old = base.location[p as usize];
-        let at = |base: &mut Base, x: DVec2| -> Option<f64> {
-            base.location[p as usize] = star.locate(x, true)?;
-            Some(self.ring_energy(base, p))
+        let at = |x: DVec2| -> Option<(f64, Location)> {
+            let l = star.locate(x, true)?;
+            Some((self.ring_energy(map.moving(p, l), p), l))
         };
-        let first = self.ring_energy(base, p);
-        let mut best = (start, first, old);
+        let first = self.ring_energy(map, p);
+        let mut best = (start, first, base.location[p as usize]);
         // Relaxing the stretch starts from an unfolded map and keeps it so.
         let folded = self.stretch.is_none()
             && self.domain.around[p as usize]
                 .iter()
-                .any(|&t| self.folded(base, t));
+                .any(|&t| self.folded(map, t));
         if folded
             && let Some(ring) =
-                ring_chart(self.mesh, base, &self.domain.stars, &self.domain.around, p)
+                ring_chart(self.mesh, map, &self.domain.stars, &self.domain.around, p)
         {
             let edges = &ring.edges;
             let mean = edges.iter().map(|&(q, _)| q).sum::<DVec2>() / edges.len().max(1) as f64;
@@ -1477,36 +1544,34 @@ impl<'a> Knots<'a> {
                 let Some(l) = chart.locate(y, true) else {
                     continue;
                 };
-                base.location[p as usize] = l;
-                let e = self.ring_energy(base, p);
+                let moved = map.moving(p, l);
+                let e = self.ring_energy(moved, p);
                 if e < best.1 {
                     // Back in the proposing chart, where the steps go on.
-                    if let Some(x) = place_in(star, a, p, base, true) {
+                    if let Some(x) = place_in(star, a, p, moved, true) {
                         best = (x, e, l);
                     }
                 }
             }
-            base.location[p as usize] = best.2;
         }
         for _ in 0..3 {
             let (x, e) = (best.0, best.1);
             let h = 1e-5 * size;
             let mut g = DVec2::ZERO;
             for (k, d) in [DVec2::X, DVec2::Y].into_iter().enumerate() {
-                let Some(plus) = at(base, x + d * h) else {
+                let Some((plus, _)) = at(x + d * h) else {
                     g = DVec2::ZERO;
                     break;
                 };
                 g[k] = plus - e;
             }
-            base.location[p as usize] = best.2;
             if !g.is_finite() || g.length() <= 0.0 {
                 break;
             }
             let d = -g.normalize();
             // Relaxing the stretch starts from twice the vertex's last
             // step: the map moves little from sweep to sweep.
-            let remembered = self.steps[p as usize].get();
+            let remembered = f64::from_bits(self.steps[p as usize].load(Ordering::Relaxed));
             let mut step = if self.stretch.is_some() && remembered > 0.0 {
                 (STEP_GROWTH * remembered).min(0.5 * size)
             } else {
@@ -1515,24 +1580,45 @@ impl<'a> Knots<'a> {
             let mut found = None;
             while step > 1e-4 * size {
                 let y = x + d * step;
-                if let Some(ey) = at(base, y)
+                if let Some((ey, l)) = at(y)
                     && ey < e
                 {
-                    found = Some((y, ey, base.location[p as usize]));
-                    self.steps[p as usize].set(step);
+                    found = Some((y, ey, l));
+                    self.steps[p as usize].store(step.to_bits(), Ordering::Relaxed);
                     break;
                 }
                 step *= 0.5;
             }
-            base.location[p as usize] = best.2;
             let Some(next) = found else { break };
             best = next;
         }
-        base.location[p as usize] = best.2;
         // Only a move that lowers the energy by a share worth sweeping for
         // wakes the neighbours.
-        best.1 < (1.0 - 1e-3) * first
+        Some((best.2, best.1 < (1.0 - 1e-3) * first))
     }
+}
+
+/// A greedy colouring of the input's vertices (each the least colour none
+/// of its neighbours before it has), from the triangles `around` each.
+fn colours(mesh: &TriMesh, around: &[Vec<u32>]) -> Vec<u32> {
+    let mut colours = vec![u32::MAX; around.len()];
+    let mut taken: Vec<bool> = Vec::new();
+    for v in 0..around.len() {
+        taken.clear();
+        for &t in &around[v] {
+            for w in mesh.triangles[t as usize] {
+                let c = colours[w as usize];
+                if c != u32::MAX {
+                    if taken.len() <= c as usize {
+                        taken.resize(c as usize + 1, false);
+                    }
+                    taken[c as usize] = true;
+                }
+            }
+        }
+        colours[v] = taken.iter().position(|&t| !t).unwrap_or(taken.len()) as u32;
+    }
+    colours
 }
 
 /// Vertex `p`'s ring drawn in the chart of the nearest corner of its base
@@ -1546,15 +1632,15 @@ struct RingChart {
 
 fn ring_chart(
     mesh: &TriMesh,
-    base: &Base,
+    map: Map,
     stars: &Stars,
     around: &[Vec<u32>],
     p: u32,
 ) -> Option<RingChart> {
-    let Location::Face(f, b) = base.location[p as usize] else {
+    let Location::Face(f, b) = map.location(p) else {
         return None;
     };
-    let tri = base.triangles[f as usize];
+    let tri = map.base.triangles[f as usize];
     let mut corners = [0usize, 1, 2];
     corners.sort_by(|&i, &j| b[j].total_cmp(&b[i]));
     'corner: for (c, wide) in corners
@@ -1564,7 +1650,7 @@ fn ring_chart(
     {
         let a = tri[c];
         let star = &stars[&a];
-        let Some(at) = place_in(star, a, p, base, wide) else {
+        let Some(at) = place_in(star, a, p, map, wide) else {
             continue;
         };
         let mut edges = Vec::with_capacity(around[p as usize].len());
@@ -1574,8 +1660,8 @@ fn ring_chart(
                 continue 'corner;
             };
             let (Some(q), Some(r)) = (
-                place_in(star, a, tri[(k + 1) % 3], base, wide),
-                place_in(star, a, tri[(k + 2) % 3], base, wide),
+                place_in(star, a, tri[(k + 1) % 3], map, wide),
+                place_in(star, a, tri[(k + 2) % 3], map, wide),
             ) else {
                 continue 'corner;
             };
@@ -1828,7 +1914,7 @@ mod tests {
     fn folds(mesh: &TriMesh, domain: &super::Domain, base: &super::Base) -> usize {
         let knots = super::Knots::new(mesh, domain);
         (0..mesh.triangles.len() as u32)
-            .filter(|&t| knots.folded(base, t))
+            .filter(|&t| knots.folded(super::Map::new(base), t))
             .count()
     }
 
@@ -1922,7 +2008,7 @@ mod tests {
     fn least_ratio(mesh: &TriMesh, domain: &super::Domain, base: &super::Base) -> f64 {
         let knots = super::Knots::new(mesh, domain);
         let mut ratios: Vec<f64> = (0..mesh.triangles.len() as u32)
-            .map(|t| knots.area_ratio(base, t))
+            .map(|t| knots.area_ratio(super::Map::new(base), t))
             .collect();
         ratios.sort_by(f64::total_cmp);
         ratios[0] / ratios[ratios.len() / 2]
@@ -1944,6 +2030,25 @@ mod tests {
             measure(&mesh, &domain, &base),
             folds(&mesh, &domain, &base),
         )
+    }
+
+    /// No two vertices of a triangle share a colour, so the vertices of
+    /// one colour read none of each other's places when they move.
+    #[test]
+    fn neighbours_never_share_a_colour() {
+        let mesh = crate::clean::clean(&torus(24, 12))
+            .unwrap()
+            .components
+            .remove(0);
+        let domain =
+            super::Domain::new(&mesh, &super::super::simplify::simplify(&mesh, 60)).expect("stars");
+        let colours = super::colours(&mesh, &domain.around);
+        for t in &mesh.triangles {
+            let [a, b, c] = t.map(|v| colours[v as usize]);
+            assert!(a != b && b != c && c != a, "triangle {t:?}: {a} {b} {c}");
+        }
+        // A torus of valence 6 needs few colours.
+        assert!(colours.iter().all(|&c| c < 8), "{:?}", colours.iter().max());
     }
 
     /// On a sphere with a long bump, the map the simplification leaves
@@ -1971,7 +2076,7 @@ mod tests {
         (0..mesh.triangles.len() as u32)
             .filter(|&t| {
                 let right: Vec<bool> = knots
-                    .drawings(base, t)
+                    .drawings(super::Map::new(base), t)
                     .map(|[p, q, r]| super::drawn_right(p, q, r))
                     .collect();
                 right.contains(&true) && right.contains(&false)
