@@ -286,6 +286,11 @@ struct Simplifier<'a> {
     min_quality: f64,
     /// Whether crease lines end at sharp turns.
     noisy_creases: bool,
+    /// Triangle counts at which to keep the base passed through, largest
+    /// first, those passed removed.
+    checkpoints: Vec<usize>,
+    /// The bases kept at checkpoints.
+    passed: Vec<(usize, Base)>,
 }
 
 /// Simplifies `mesh` (one cleaned component) towards `target` base
@@ -311,25 +316,42 @@ pub fn simplify(mesh: &TriMesh, target: usize) -> Base {
 /// Where ending the lines at their turns leaves the same crease lines, the
 /// second run would be the first again, and is not made (the full
 /// dragon's took 29 s to give the same base).
-pub fn simplify_part(mesh: &TriMesh, target: usize) -> Base {
-    let mut plain = Simplifier::for_target(mesh, target, false);
+///
+/// With the base, the bases the kept run passed through on its way, one at
+/// each of the `checkpoints` (triangle counts) above where it stopped: the
+/// bases of shallower levels, for free.
+pub fn simplify_part(mesh: &TriMesh, target: usize, checkpoints: &[usize]) -> Simplified {
+    let run = |noisy: bool| {
+        let mut s = Simplifier::for_target(mesh, target, noisy);
+        s.checkpoints = checkpoints.to_vec();
+        s.checkpoints.sort_unstable_by(|a, b| b.cmp(a));
+        s
+    };
+    let mut plain = run(false);
     let creases = plain.creases.clone();
     plain.run(target.max(1));
-    let base = plain.finish();
-    if base.triangles.len() <= STUCK * target.max(1) {
-        return base;
+    let plain = plain.finish_with_passed();
+    if plain.base.triangles.len() <= STUCK * target.max(1) {
+        return plain;
     }
-    let mut noisy = Simplifier::for_target(mesh, target, true);
+    let mut noisy = run(true);
     if noisy.creases == creases {
-        return base;
+        return plain;
     }
     noisy.run(target.max(1));
-    let noisy = noisy.finish();
-    if noisy.triangles.len() < base.triangles.len() {
+    let noisy = noisy.finish_with_passed();
+    if noisy.base.triangles.len() < plain.base.triangles.len() {
         noisy
     } else {
-        base
+        plain
     }
+}
+
+/// What [`simplify_part`] made: the base, and the bases passed through at
+/// the checkpoints asked for (count asked, base), largest first.
+pub struct Simplified {
+    pub base: Base,
+    pub passed: Vec<(usize, Base)>,
 }
 
 /// Simplifies `mesh` towards `target` base triangles, fewer if no removal
@@ -433,6 +455,8 @@ impl<'a> Simplifier<'a> {
             keep: &[],
             min_quality: MIN_QUALITY,
             noisy_creases,
+            checkpoints: Vec::new(),
+            passed: Vec::new(),
         };
         s.prune_creases(&edge_faces, min_crease, most_ends);
         s.feature = s.crease_degree.iter().map(|&d| d > 0).collect();
@@ -926,6 +950,7 @@ impl<'a> Simplifier<'a> {
             })
             .collect();
         let mut heap = BinaryHeap::from(first);
+        self.pass_checkpoints();
         while self.alive_faces > target {
             let Some(entry) = heap.pop() else { break };
             let v = entry.v;
@@ -943,6 +968,7 @@ impl<'a> Simplifier<'a> {
                 continue;
             }
             let touched = self.collapse(v, plan.u);
+            self.pass_checkpoints();
             for w in touched {
                 self.stamp[w as usize] += 1;
                 if let Some(p) = self.plan(w) {
@@ -1066,7 +1092,30 @@ impl<'a> Simplifier<'a> {
         ring.verts
     }
 
+    /// Keeps the base now at every checkpoint the count has come down to.
+    fn pass_checkpoints(&mut self) {
+        while let Some(&count) = self.checkpoints.first()
+            && self.alive_faces <= count
+        {
+            self.checkpoints.remove(0);
+            let base = self.base();
+            self.passed.push((count, base));
+        }
+    }
+
     fn finish(self) -> Base {
+        self.base()
+    }
+
+    fn finish_with_passed(mut self) -> Simplified {
+        let passed = std::mem::take(&mut self.passed);
+        Simplified {
+            base: self.base(),
+            passed,
+        }
+    }
+
+    fn base(&self) -> Base {
         let mut index = vec![u32::MAX; self.faces.len()];
         let mut triangles = Vec::with_capacity(self.alive_faces);
         for (f, t) in self.faces.iter().enumerate() {
@@ -1086,7 +1135,7 @@ impl<'a> Simplifier<'a> {
         Base {
             triangles,
             location,
-            feature: self.feature,
+            feature: self.feature.clone(),
             noisy_creases: self.noisy_creases,
         }
     }
@@ -1265,6 +1314,11 @@ mod tests {
             base.triangles.len()
         );
         assert_eq!(euler(&base.triangles), 2, "genus kept");
+        assert_mapped(&base);
+    }
+
+    /// Every vertex of `base`'s map is a base vertex or in a base triangle.
+    fn assert_mapped(base: &Base) {
         for (v, l) in base.location.iter().enumerate() {
             match *l {
                 Location::Vertex => {
@@ -1278,5 +1332,25 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The bases a run passes through at its checkpoints are bases like
+    /// its last: at their count or one collapse under it, genus kept,
+    /// every vertex mapped. A checkpoint under where the run stops passes
+    /// nothing.
+    #[test]
+    fn a_run_keeps_the_bases_it_passes_through() {
+        let sphere = super::super::tests::sphere(32);
+        let mesh = &crate::clean::clean(&sphere).unwrap().components[0];
+        let simplified = simplify_part(mesh, 40, &[10, 400, 100]);
+        let counts: Vec<usize> = simplified.passed.iter().map(|(c, _)| *c).collect();
+        assert_eq!(counts, [400, 100]);
+        for (count, base) in &simplified.passed {
+            let n = base.triangles.len();
+            assert!(n <= *count && n + 2 >= *count, "{n} triangles for {count}");
+            assert_eq!(euler(&base.triangles), 2, "genus kept");
+            assert_mapped(base);
+        }
+        assert!(simplified.base.triangles.len() <= 40);
     }
 }
