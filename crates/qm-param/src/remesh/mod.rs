@@ -622,6 +622,9 @@ fn remesh_charts(
             (s.base, s.passed)
         })
         .unzip();
+    // Each part's goal at the level first chosen, which its base was
+    // simplified for.
+    let first_goals: Vec<usize> = (0..bases.len()).map(|c| goal(c, level)).collect();
     if options.level.is_none() {
         // A part that could not come down to its goal (a small separate
         // part, or one whose feature lines hold many base vertices) keeps
@@ -697,8 +700,13 @@ fn remesh_charts(
                 }
                 // As many base triangles as the first try made: a part that
                 // could not come down to its goal asks for no more.
-                let mut again =
-                    simplify::simplify_keeping(component, size, &keep, base.noisy_creases);
+                let mut again = simplify::simplify_keeping(
+                    component,
+                    first_goals[c],
+                    size,
+                    &keep,
+                    base.noisy_creases,
+                );
                 let (d, f) = map(&mut again)?;
                 mark(&mut keep, &f);
                 if f.len() <= folded.len() {
