@@ -656,17 +656,20 @@ fn remesh_charts(
         }
     }
     drop(passed);
-    let quads: usize = bases.iter().map(|b| 3 * b.triangles.len()).sum();
-    let samples = quads as f64 * ((1u64 << level) as f64 + 1.0).powi(2);
     // Sampling through charts holds every quad's samples and fit nodes
     // before they are numbered: the bunny's 1.04M samples took 1.1 GB, so
     // a sample counts four times here.
-    check_weighted_memory(
-        input_triangles,
-        samples as u64,
-        CHARTS_SAMPLE_WEIGHT,
-        options.max_memory,
-    )?;
+    let check_memory = |bases: &[simplify::Base]| -> Result<()> {
+        let quads: usize = bases.iter().map(|b| 3 * b.triangles.len()).sum();
+        let samples = quads as f64 * ((1u64 << level) as f64 + 1.0).powi(2);
+        check_weighted_memory(
+            input_triangles,
+            samples as u64,
+            CHARTS_SAMPLE_WEIGHT,
+            options.max_memory,
+        )
+    };
+    check_memory(&bases)?;
     // Each part's stars and adjacency, then its map untangled.
     let domains: Vec<charts::Domain> = bases
         .par_iter_mut()
@@ -719,6 +722,9 @@ fn remesh_charts(
             Ok(domain)
         })
         .collect::<Result<_>>()?;
+    // Again for the bases sampled: a part simplified again around its folds
+    // may have another.
+    check_memory(&bases)?;
     let mut patches = Vec::with_capacity(bases.len());
     for (c, ((base, component), domain)) in bases
         .iter()
