@@ -567,7 +567,8 @@ const UNTANGLE_ROUNDS: usize = 50;
 /// (`charts::relax_stretch`). Most inputs stop well before, with no move
 /// left worth waking its neighbours for. At 50, genus12 had not: at 200 it
 /// gained 3.3 dB (85.1 to 88.4); of 13 other inputs none moved by more than
-/// 0.2 dB, nor measurably in time (docs/remesher-next.md).
+/// 0.2 dB, and their times by no more than one run's noise
+/// (docs/remesher-next.md).
 const STRETCH_SWEEPS: usize = 200;
 
 /// How many times a part whose map still folds is simplified again, its
@@ -625,9 +626,8 @@ fn remesh_charts(
             (s.base, s.passed)
         })
         .unzip();
-    // Each part's goal at the level first chosen, which its base was
-    // simplified for.
-    let first_goals: Vec<usize> = (0..bases.len()).map(|c| goal(c, level)).collect();
+    // The level first chosen, whose goals the bases were simplified for.
+    let first_level = level;
     if options.level.is_none() {
         // A part that could not come down to its goal (a small separate
         // part, or one whose feature lines hold many base vertices) keeps
@@ -637,7 +637,8 @@ fn remesh_charts(
         // their goal there take the base their simplification passed
         // through at that goal. (Simplified again for it, the full dragon,
         // stuck far over its goal of 341, made 9,618 triangles for the
-        // level's 5,461 in about 30 s, and kept its first base.)
+        // level's 5,461, 25.1 s for the first phase alone, and kept its
+        // first base.)
         let counts: Vec<usize> = bases.iter().map(|b| b.triangles.len()).collect();
         let base_at = |l: u32| -> f64 {
             (0..bases.len())
@@ -708,7 +709,7 @@ fn remesh_charts(
                 // could not come down to its goal asks for no more.
                 let mut again = simplify::simplify_keeping(
                     component,
-                    first_goals[c],
+                    goal(c, first_level),
                     size,
                     &keep,
                     base.noisy_creases,
