@@ -36,7 +36,7 @@ mod square;
 mod surface;
 
 use qm_lift::glam::DVec3;
-use qm_lift::{BaseMesh, Layout, SemiRegularMesh};
+use qm_lift::{BaseMesh, Layout, SemiRegularMesh, split_triangles};
 use rayon::prelude::*;
 
 use crate::clean::{CleanReport, Cleaned, clean, clean_keeping_sheets};
@@ -290,20 +290,19 @@ pub struct NormalReport {
 pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     let input_triangles = mesh.faces().map(|f| f.len().saturating_sub(2) as u64).sum();
     check_memory(input_triangles, 0, options.max_memory)?;
-    if options.domain == BaseDomain::Input {
-        if let Some(level) = options.level.filter(|&l| l != 0) {
-            return Err(Error::remesh(RemeshFailure::Step(format!(
-                "the input's own triangles are a base of level 0, not {level}"
-            ))));
-        }
-        return remesh_input(mesh);
-    }
-    let cleaned = clean(mesh)?;
     match options.domain {
-        BaseDomain::Square => remesh_square(cleaned, input_triangles, options),
-        BaseDomain::Charts => remesh_charts(mesh, cleaned, input_triangles, options),
-        // Auto (Input went above).
-        _ => {
+        BaseDomain::Input => {
+            if let Some(level) = options.level.filter(|&l| l != 0) {
+                return Err(Error::remesh(RemeshFailure::Step(format!(
+                    "the input's own triangles are a base of level 0, not {level}"
+                ))));
+            }
+            remesh_input(mesh)
+        }
+        BaseDomain::Square => remesh_square(clean(mesh)?, input_triangles, options),
+        BaseDomain::Charts => remesh_charts(mesh, clean(mesh)?, input_triangles, options),
+        BaseDomain::Auto => {
+            let cleaned = clean(mesh)?;
             let triangles: usize = cleaned.components.iter().map(|c| c.triangles.len()).sum();
             let remeshed = remesh_auto(mesh, cleaned, input_triangles, options);
             // A level asked for is a remesh asked for.
@@ -332,7 +331,7 @@ fn remesh_or_input(
     remeshed: Result<Remeshed>,
     triangles: usize,
 ) -> Result<Remeshed> {
-    let why = match &remeshed {
+    let (psnr, why) = match &remeshed {
         // A base of as many quads as the input's own triangles make is
         // those triangles, and levels over them only add samples of the
         // same flat faces (a cube: 722 bytes at level 1 through charts, 113
@@ -372,9 +371,12 @@ fn remesh_or_input(
     let Ok(mut exact) = remesh_input(mesh) else {
         return remeshed;
     };
-    let (psnr, why) = why;
     // Not clearly better: the remesh streams, and costs less.
-    if remeshed.is_ok() && exact.report.psnr.unwrap_or(f64::NEG_INFINITY) < psnr + CLEARLY_BETTER_DB
+    if remeshed.is_ok()
+        && exact
+            .report
+            .psnr
+            .is_none_or(|e| e < psnr + CLEARLY_BETTER_DB)
     {
         return remeshed;
     }
@@ -1037,32 +1039,24 @@ fn finish(
 
 /// The faces of parts' split bases (`qm_lift::split_triangles`, each part
 /// numbered on its own: corners, midpoints, centres), one after the other,
-/// numbered as the split of all their triangles together: every part's
-/// corners, then every midpoint, then every centre, each in order of first
-/// use. The base coder knows a split by that numbering alone
+/// numbered as the split of all their triangles together (the same
+/// function's): every part's corners, then every midpoint, then every
+/// centre, each in order of first use. The base coder knows a split by that numbering alone
 /// (`qm_lift::unsplit`); numbered part by part, the charts' bases of
 /// dragon_vrip_res3 (14 parts) went as quads, at several times the bytes.
 fn split_numbering(faces: &[[u32; 4]], vertices: u32) -> Vec<[u32; 4]> {
-    let mut new = vec![u32::MAX; vertices as usize];
-    let mut next = 0u32;
-    let mut number = |v: u32, new: &mut [u32]| {
-        if new[v as usize] == u32::MAX {
-            new[v as usize] = next;
-            next += 1;
-        }
-    };
-    // Quad `c` of a triangle is `[corner c, midpoint of the edge from it,
-    // centre, midpoint of the edge into it]`.
-    for slot in [0, 1, 2] {
-        for face in faces {
-            number(face[slot], &mut new);
-        }
-    }
-    if next != vertices {
+    // Quad `c` of a triangle starts at its corner `c`.
+    let triangles: Vec<[u32; 3]> = faces
+        .chunks_exact(3)
+        .map(|q| [q[0][0], q[1][0], q[2][0]])
+        .collect();
+    let split = split_triangles(&triangles);
+    if split.vertex_count == vertices {
+        split.faces
+    } else {
         // Not splits after all: as they are.
-        return faces.to_vec();
+        faces.to_vec()
     }
-    faces.iter().map(|f| f.map(|v| new[v as usize])).collect()
 }
 
 /// How far outside its component's bounding box a sample may lie, in
@@ -1423,8 +1417,10 @@ mod tests {
         let r = remesh(&input, &options).unwrap();
         assert_eq!(r.report.components.len(), 2);
         let base = r.mesh.layout().base();
-        let triangles = qm_lift::unsplit(base.faces(), base.vertex_count()).unwrap();
-        assert_eq!(3 * triangles.len(), base.faces().len());
+        let triangles =
+            qm_lift::unsplit(base.faces(), base.vertex_count()).expect("one split of both parts");
+        let quads: usize = r.report.components.iter().map(|c| c.base_quads).sum();
+        assert_eq!(3 * triangles.len(), quads);
     }
 
     /// `auto` makes the same remesh whether both remeshes run at once or
