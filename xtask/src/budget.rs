@@ -75,15 +75,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
         let tree = ZeroTree::new(layout);
         // The stream's own base bits, as the encoder chose them: with the
         // split implied, those of the corners alone (the first vertices).
-        let vertices = layout.base().vertex_count();
-        let coded = match qm::lift::unsplit(layout.base().faces(), vertices) {
-            Some(triangles) if header.implied() => triangles
-                .iter()
-                .flatten()
-                .max()
-                .map_or(0, |&c| c as usize + 1),
-            _ => vertices as usize,
-        };
+        let coded = qm::codec::coded_base_values(layout.base(), header.implied());
         let base = qm::ezw::BaseBits {
             values: &data[..coded],
             most: header.stream_params().base_bits,

@@ -792,6 +792,18 @@ pub(crate) fn noise_bits(
     (64 - median.leading_zeros()).saturating_sub(2)
 }
 
+/// How many of `base`'s vertices have their values coded (in the base
+/// section, and their low bits in the stream): with `implied` (the
+/// header's flag) and a split base, its corners alone.
+pub fn coded_base_values(base: &qm_lift::BaseMesh, implied: bool) -> usize {
+    let vertices = base.vertex_count() as usize;
+    coded_values(
+        split_triangles_of(base.faces(), vertices).as_deref(),
+        vertices,
+        implied,
+    )
+}
+
 /// How many of a base's `vertices` have their values coded: with
 /// `implied` and a split base, its corners alone.
 fn coded_values(split: Option<&[[u32; 3]]>, vertices: usize, implied: bool) -> usize {

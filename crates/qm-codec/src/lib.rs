@@ -19,6 +19,7 @@ pub mod container;
 mod error;
 pub mod holds;
 
+pub use basecode::coded_base_values;
 pub use codec::{
     AUTO_CUTS, AUTO_MIN_GAIN_DB, Compressed, DecodeOptions, DecodeStatus, Decoder, Decompressed,
     EncodeOptions, Frames, compress, compress_probed, decompress,
