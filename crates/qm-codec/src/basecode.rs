@@ -998,33 +998,14 @@ mod tests {
         assert!(err.contains("no split"), "{err}");
     }
 
-    /// `triangles` depth first, each from the most recently opened edge it
-    /// shares and turned to start there, as the remesher orders them.
+    /// `triangles` in the order the remesher gives them (depth first, each
+    /// from the most recently opened edge it shares and turned to start
+    /// there).
     fn depth_first(triangles: &[[u32; 3]]) -> Triangles {
-        let mut holding = HashMap::new();
-        for (t, tri) in triangles.iter().enumerate() {
-            for i in 0..3 {
-                holding.insert((tri[i], tri[(i + 1) % 3]), (t, i));
-            }
-        }
-        let (mut placed, mut order, mut open) = (vec![false; triangles.len()], vec![], vec![]);
-        for seed in 0..triangles.len() {
-            let mut next = (!placed[seed]).then_some((seed, 0));
-            while let Some((t, r)) = next {
-                placed[t] = true;
-                let tri: [u32; 3] = std::array::from_fn(|i| triangles[t][(r + i) % 3]);
-                order.push(tri);
-                open.extend((0..3).map(|i| (tri[i], tri[(i + 1) % 3])));
-                next = None;
-                while let Some((a, b)) = open.pop() {
-                    if let Some(&(u, i)) = holding.get(&(b, a)).filter(|(u, _)| !placed[*u]) {
-                        next = Some((u, i));
-                        break;
-                    }
-                }
-            }
-        }
-        order
+        qm_lift::coding_order(triangles)
+            .into_iter()
+            .map(|(t, r)| std::array::from_fn(|i| triangles[t as usize][(r as usize + i) % 3]))
+            .collect()
     }
 
     /// Version 4 flags a triangle's vertex when it is the next along the

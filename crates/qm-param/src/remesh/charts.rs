@@ -24,7 +24,7 @@ use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use qm_lift::glam::{DMat2, DVec2, DVec3};
-use qm_lift::{BaseMesh, Layout, split_triangles};
+use qm_lift::{BaseMesh, Layout, coding_order, split_triangles};
 use rayon::prelude::*;
 
 use super::resample::{Patch, fit_grids};
@@ -65,7 +65,7 @@ pub(super) struct Quads {
 }
 
 pub(super) fn quads(triangles: &[[u32; 3]]) -> Quads {
-    let order = traversal(triangles);
+    let order = coding_order(triangles);
     let turned: Vec<[u32; 3]> = (order.iter())
         .map(|&(t, r)| std::array::from_fn(|i| triangles[t as usize][(r as usize + i) % 3]))
         .collect();
@@ -85,46 +85,6 @@ pub(super) fn quads(triangles: &[[u32; 3]]) -> Quads {
         owner,
         compact,
     }
-}
-
-/// The base triangles in the order the base coder sends them cheaply, each
-/// with the corner it starts at: every triangle after the first of its
-/// part shares an edge with one before it, the most recently opened such
-/// edge first, and starts at that edge (`docs/format.md`, version 3).
-fn traversal(triangles: &[[u32; 3]]) -> Vec<(u32, u8)> {
-    let mut holding: HashMap<(u32, u32), (u32, u8)> = HashMap::with_capacity(3 * triangles.len());
-    for (t, tri) in triangles.iter().enumerate() {
-        for i in 0..3 {
-            holding.insert((tri[i], tri[(i + 1) % 3]), (t as u32, i as u8));
-        }
-    }
-    let mut placed = vec![false; triangles.len()];
-    let mut order = Vec::with_capacity(triangles.len());
-    // Open edges, the most recent last, as the coder lists them: a
-    // triangle opens its edges in turn, so its last is the most recent.
-    let mut open: Vec<(u32, u32)> = Vec::new();
-    for seed in 0..triangles.len() as u32 {
-        let mut next = (!placed[seed as usize]).then_some((seed, 0u8));
-        while let Some((t, r)) = next {
-            placed[t as usize] = true;
-            order.push((t, r));
-            let tri = triangles[t as usize];
-            // The first edge is the one attached to (but in a part's first
-            // triangle), and its twin is placed: it is dropped when popped.
-            for i in 0..3 {
-                let k = (r as usize + i) % 3;
-                open.push((tri[k], tri[(k + 1) % 3]));
-            }
-            next = None;
-            while let Some((a, b)) = open.pop() {
-                if let Some(&(u, i)) = holding.get(&(b, a)).filter(|(u, _)| !placed[*u as usize]) {
-                    next = Some((u, i));
-                    break;
-                }
-            }
-        }
-    }
-    order
 }
 
 /// One base vertex's chart.
