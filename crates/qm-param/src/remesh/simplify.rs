@@ -54,6 +54,10 @@ const MIN_CREASE_LENGTH: f64 = 0.5;
 /// edges, 1 for the equilateral, scaled by `2 / sqrt(3)`) are not made.
 const MIN_QUALITY: f64 = 0.02;
 
+/// A removal may make triangles down to this share of the quality of the
+/// thinnest it removes, where that is under the shape bound.
+const SLIVER_SLACK: f64 = 0.5;
+
 /// How many times its target a simplification may stop at before it goes
 /// on with lower shape bounds.
 const STUCK: usize = 2;
@@ -233,10 +237,15 @@ pub(super) fn ring(v: u32, faces: &[u32], triangles: &[[u32; 3]]) -> Option<Ring
     })
 }
 
-/// A planned removal of `v` into `u`.
+/// A planned removal of `v` into `u`: a half-edge collapse, whose new
+/// triangles are the fan from `u`, or the ring retriangulated (`u` then the
+/// ring vertex nearest `v`, which takes its quadric).
 struct Plan {
     u: u32,
     cost: f64,
+    /// The new triangles (ring positions, counter-clockwise) where they are
+    /// not the fan from `u`.
+    triangles: Option<Vec<[usize; 3]>>,
 }
 
 #[derive(PartialEq)]
@@ -814,6 +823,13 @@ impl<'a> Simplifier<'a> {
             .map(|&f| self.normal3(self.faces[f as usize]))
             .sum::<DVec3>()
             .normalize_or_zero();
+        // A removal may make triangles as thin as the thinnest it removes: a
+        // scan's slivers would otherwise hold every vertex around them.
+        let floor = ring
+            .faces
+            .iter()
+            .map(|&f| SLIVER_SLACK * self.quality3(self.faces[f as usize]))
+            .fold(self.min_quality, f64::min);
         let mut best: Option<Plan> = None;
         for ui in candidates {
             let u = ring.verts[ui];
@@ -887,7 +903,7 @@ impl<'a> Simplifier<'a> {
                 }
                 quality = quality.min(self.quality3(t));
             }
-            if !ok || quality < self.min_quality {
+            if !ok || quality < floor {
                 continue;
             }
             let mut q = self.quadric[v as usize];
@@ -895,10 +911,101 @@ impl<'a> Simplifier<'a> {
             let err = q.eval(self.positions[u as usize]) / q.area.max(1e-300);
             let cost = (err + AREA_WEIGHT * ring_area) / quality.min(1.0);
             if best.as_ref().is_none_or(|b| cost < b.cost) {
-                best = Some(Plan { u, cost });
+                best = Some(Plan {
+                    u,
+                    cost,
+                    triangles: None,
+                });
             }
         }
+        // Where no fan is valid (a noisy scan's ring that no ring vertex
+        // sees whole), MAPS's removal: the flattened ring retriangulated.
+        if best.is_none()
+            && degree == 0
+            && ring.closed
+            && let Some((quality, triangles)) = self.retriangulate(&ring, &plain, ring_normal)
+            && quality >= floor
+        {
+            let p = self.positions[v as usize];
+            let nearest = ring.verts.iter().copied().min_by(|&a, &b| {
+                let d = |w: u32| self.positions[w as usize].distance_squared(p);
+                d(a).total_cmp(&d(b))
+            })?;
+            let mut q = self.quadric[v as usize];
+            q.add(&self.quadric[nearest as usize]);
+            let err = q.eval(self.positions[nearest as usize]) / q.area.max(1e-300);
+            best = Some(Plan {
+                u: nearest,
+                cost: (err + AREA_WEIGHT * ring_area) / quality.min(1.0),
+                triangles: Some(triangles),
+            });
+        }
         best
+    }
+
+    /// The triangulation of the closed ring's flattened polygon `flat` whose
+    /// thinnest triangle is thickest (dynamic programming over the
+    /// polygon's sub-chains), with every triangle turned the right way in
+    /// the flattening and along `normal`, and no new edge that the mesh
+    /// already has. Its least quality and triangles (ring positions,
+    /// counter-clockwise), if there is one.
+    fn retriangulate(
+        &self,
+        ring: &Ring,
+        flat: &[DVec2],
+        normal: DVec3,
+    ) -> Option<(f64, Vec<[usize; 3]>)> {
+        let k = ring.verts.len();
+        // Whether positions i < j may be joined: a ring edge, or a new edge.
+        let joinable = |i: usize, j: usize| {
+            j == i + 1 || (i == 0 && j == k - 1) || !self.adjacent(ring.verts[i], ring.verts[j])
+        };
+        let score = |a: usize, b: usize, c: usize| -> f64 {
+            let (pa, pb, pc) = (flat[a], flat[b], flat[c]);
+            let area2 = (pb - pa).perp_dot(pc - pa);
+            let scale = (pb - pa).length_squared()
+                + (pc - pb).length_squared()
+                + (pa - pc).length_squared();
+            let t = [ring.verts[a], ring.verts[b], ring.verts[c]];
+            if area2.is_nan() || area2 <= 1e-12 * scale || self.normal3(t).dot(normal) <= 0.0 {
+                return f64::NEG_INFINITY;
+            }
+            self.quality3(t)
+        };
+        // best[i][j]: the sub-chain i..=j closed by the edge i j.
+        let mut best = vec![vec![(f64::NEG_INFINITY, usize::MAX); k]; k];
+        for i in 0..k - 1 {
+            best[i][i + 1] = (f64::INFINITY, usize::MAX);
+        }
+        for span in 2..k {
+            for i in 0..k - span {
+                let j = i + span;
+                if !joinable(i, j) {
+                    continue;
+                }
+                for m in i + 1..j {
+                    let value = best[i][m].0.min(best[m][j].0).min(score(i, m, j));
+                    if value > best[i][j].0 {
+                        best[i][j] = (value, m);
+                    }
+                }
+            }
+        }
+        let (quality, _) = best[0][k - 1];
+        if !quality.is_finite() {
+            return None;
+        }
+        let mut triangles = Vec::with_capacity(k - 2);
+        let mut stack = vec![(0, k - 1)];
+        while let Some((i, j)) = stack.pop() {
+            if j > i + 1 {
+                let m = best[i][j].1;
+                triangles.push([i, m, j]);
+                stack.push((i, m));
+                stack.push((m, j));
+            }
+        }
+        Some((quality, triangles))
     }
 
     fn area3(&self, t: [u32; 3]) -> f64 {
@@ -979,7 +1086,7 @@ impl<'a> Simplifier<'a> {
                 });
                 continue;
             }
-            let touched = self.collapse(v, plan.u);
+            let touched = self.collapse(v, &plan);
             self.pass_checkpoints();
             for w in touched {
                 self.stamp[w as usize] += 1;
@@ -994,8 +1101,9 @@ impl<'a> Simplifier<'a> {
         }
     }
 
-    /// Removes `v` into `u`; returns the vertices whose rings changed.
-    fn collapse(&mut self, v: u32, u: u32) -> Vec<u32> {
+    /// Removes `v` as `plan` says; returns the vertices whose rings changed.
+    fn collapse(&mut self, v: u32, plan: &Plan) -> Vec<u32> {
+        let u = plan.u;
         let ring = self.ring(v).expect("planned ring");
         let k = ring.verts.len();
         let ui = ring.verts.iter().position(|&w| w == u).expect("u in ring");
@@ -1033,8 +1141,11 @@ impl<'a> Simplifier<'a> {
             self.alive[f as usize] = false;
         }
         moving.push((v, DVec2::ZERO, if bi.is_some() { 2 } else { 0 }));
-        // The new fan.
-        let fan = Self::fan(&ring, ui);
+        // The new fan, or the ring retriangulated (no crease: one side).
+        let fan = match &plan.triangles {
+            Some(triangles) => triangles.iter().map(|&t| (0, t)).collect(),
+            None => Self::fan(&ring, ui),
+        };
         let mut made: Vec<(u32, [DVec2; 3], u8)> = Vec::with_capacity(fan.len());
         for &(i, [a, b, c]) in &fan {
             let t = [ring.verts[a], ring.verts[b], ring.verts[c]];
@@ -1309,6 +1420,45 @@ mod tests {
         assert!(kept[0], "{kept:?}");
         let noisy = kept[1..].iter().filter(|&&k| k).count();
         assert!((1..=2).contains(&noisy) && kept[7], "{kept:?}");
+    }
+
+    /// A vertex whose ring, flat, is a six-pointed star: no ring vertex
+    /// sees the whole ring, so no half-edge collapse may remove it, but the
+    /// ring retriangulated may; every point of the removed triangles lands
+    /// in the new ones.
+    #[test]
+    fn a_ring_no_fan_fills_is_retriangulated() {
+        let k = 12u32;
+        let mut positions = vec![DVec3::ZERO];
+        for i in 0..k {
+            let r = if i % 2 == 0 { 1.0 } else { 0.3 };
+            let phi = std::f64::consts::TAU * f64::from(i) / f64::from(k);
+            positions.push(DVec3::new(r * phi.cos(), r * phi.sin(), 0.0));
+        }
+        let triangles = (0..k).map(|i| [0, 1 + i, 1 + (i + 1) % k]).collect();
+        let mesh = TriMesh {
+            positions,
+            triangles,
+        };
+        let s = Simplifier::new(&mesh, 0.0, f64::INFINITY, false);
+        let plan = s.plan(0).expect("a removal of the centre");
+        let made = plan.triangles.as_ref().expect("the ring retriangulated");
+        assert_eq!(made.len(), k as usize - 2);
+        let ring = s.ring(0).unwrap();
+        for ui in 0..k as usize {
+            let fan = Simplifier::fan(&ring, ui);
+            let flat = s.flatten(0, &ring, None).unwrap();
+            let folds = fan
+                .iter()
+                .any(|&(_, [a, b, c])| (flat[b] - flat[a]).perp_dot(flat[c] - flat[a]) <= 0.0);
+            assert!(folds, "the fan from {ui} fills the ring");
+        }
+        let mut s = s;
+        s.collapse(0, &plan);
+        let base = s.base();
+        assert_eq!(base.triangles.len(), k as usize - 2);
+        assert!(matches!(base.location[0], Location::Face(..)));
+        assert_mapped(&base);
     }
 
     #[test]
