@@ -490,10 +490,10 @@ pub fn resample(
     let mut turned = std::collections::HashSet::new();
     let mut right = std::collections::HashSet::new();
     // Charts are sampled a batch at a time, so that only a batch's samples
-    // wait to be numbered (160 bytes a sample: all of them held took the
-    // bunny's remesh to a 372 MB peak here, 302 MB by batches), and numbered
-    // in order, as before: a sample on an edge two charts share is the
-    // first's.
+    // wait to be numbered (five 32-byte entries a sample; all of them held
+    // took the bunny's remesh to a 372 MB peak here, 302 MB by batches),
+    // and numbered in order, as before: a sample on an edge two charts
+    // share is the first's.
     for batch in vertices.chunks(CHART_BATCH) {
         let per_chart: Vec<_> = batch.par_iter().map(sample_chart).collect();
         for (chart, f) in per_chart {

@@ -823,13 +823,21 @@ impl<'a> Simplifier<'a> {
             .map(|&f| self.normal3(self.faces[f as usize]))
             .sum::<DVec3>()
             .normalize_or_zero();
-        // A removal may make triangles as thin as the thinnest it removes: a
-        // scan's slivers would otherwise hold every vertex around them.
+        // A removal may make triangles down to half as thin as the thinnest
+        // it removes: a scan's slivers would otherwise hold every vertex
+        // around them.
         let floor = ring
             .faces
             .iter()
             .map(|&f| SLIVER_SLACK * self.quality3(self.faces[f as usize]))
             .fold(self.min_quality, f64::min);
+        // The cost of removing `v` into `u`, making triangles of `quality`.
+        let cost = |u: u32, quality: f64| {
+            let mut q = self.quadric[v as usize];
+            q.add(&self.quadric[u as usize]);
+            let err = q.eval(self.positions[u as usize]) / q.area.max(1e-300);
+            (err + AREA_WEIGHT * ring_area) / quality.min(1.0)
+        };
         let mut best: Option<Plan> = None;
         for ui in candidates {
             let u = ring.verts[ui];
@@ -882,34 +890,14 @@ impl<'a> Simplifier<'a> {
                 }
                 _ => &plain,
             };
-            let fan = Self::fan(&ring, ui);
-            let mut quality = f64::INFINITY;
-            let mut ok = true;
-            for &(_, [a, b, c]) in &fan {
-                let (pa, pb, pc) = (flat[a], flat[b], flat[c]);
-                let area2 = (pb - pa).perp_dot(pc - pa);
-                let scale = (pb - pa).length_squared()
-                    + (pc - pb).length_squared()
-                    + (pa - pc).length_squared();
-                if area2.is_nan() || area2 <= 1e-12 * scale {
-                    ok = false;
-                    break;
-                }
-                let t = [ring.verts[a], ring.verts[b], ring.verts[c]];
-                let n = self.normal3(t);
-                if n.dot(ring_normal) <= 0.0 {
-                    ok = false;
-                    break;
-                }
-                quality = quality.min(self.quality3(t));
-            }
-            if !ok || quality < floor {
+            let quality = Self::fan(&ring, ui)
+                .iter()
+                .map(|&(_, t)| self.new_quality(&ring, flat, t, ring_normal))
+                .try_fold(f64::INFINITY, |q, t| t.map(|t| q.min(t)));
+            let Some(quality) = quality.filter(|&q| q >= floor) else {
                 continue;
-            }
-            let mut q = self.quadric[v as usize];
-            q.add(&self.quadric[u as usize]);
-            let err = q.eval(self.positions[u as usize]) / q.area.max(1e-300);
-            let cost = (err + AREA_WEIGHT * ring_area) / quality.min(1.0);
+            };
+            let cost = cost(u, quality);
             if best.as_ref().is_none_or(|b| cost < b.cost) {
                 best = Some(Plan {
                     u,
@@ -931,12 +919,9 @@ impl<'a> Simplifier<'a> {
                 let d = |w: u32| self.positions[w as usize].distance_squared(p);
                 d(a).total_cmp(&d(b))
             })?;
-            let mut q = self.quadric[v as usize];
-            q.add(&self.quadric[nearest as usize]);
-            let err = q.eval(self.positions[nearest as usize]) / q.area.max(1e-300);
             best = Some(Plan {
                 u: nearest,
-                cost: (err + AREA_WEIGHT * ring_area) / quality.min(1.0),
+                cost: cost(nearest, quality),
                 triangles: Some(triangles),
             });
         }
@@ -960,17 +945,9 @@ impl<'a> Simplifier<'a> {
         let joinable = |i: usize, j: usize| {
             j == i + 1 || (i == 0 && j == k - 1) || !self.adjacent(ring.verts[i], ring.verts[j])
         };
-        let score = |a: usize, b: usize, c: usize| -> f64 {
-            let (pa, pb, pc) = (flat[a], flat[b], flat[c]);
-            let area2 = (pb - pa).perp_dot(pc - pa);
-            let scale = (pb - pa).length_squared()
-                + (pc - pb).length_squared()
-                + (pa - pc).length_squared();
-            let t = [ring.verts[a], ring.verts[b], ring.verts[c]];
-            if area2.is_nan() || area2 <= 1e-12 * scale || self.normal3(t).dot(normal) <= 0.0 {
-                return f64::NEG_INFINITY;
-            }
-            self.quality3(t)
+        let score = |a: usize, b: usize, c: usize| {
+            self.new_quality(ring, flat, [a, b, c], normal)
+                .unwrap_or(f64::NEG_INFINITY)
         };
         // best[i][j]: the sub-chain i..=j closed by the edge i j.
         let mut best = vec![vec![(f64::NEG_INFINITY, usize::MAX); k]; k];
@@ -1006,6 +983,27 @@ impl<'a> Simplifier<'a> {
             }
         }
         Some((quality, triangles))
+    }
+
+    /// The quality of a triangle a removal would make, on ring positions
+    /// `[a, b, c]`: `None` if it is not turned the right way in the
+    /// flattening `flat` and along `normal`.
+    fn new_quality(
+        &self,
+        ring: &Ring,
+        flat: &[DVec2],
+        [a, b, c]: [usize; 3],
+        normal: DVec3,
+    ) -> Option<f64> {
+        let (pa, pb, pc) = (flat[a], flat[b], flat[c]);
+        let area2 = (pb - pa).perp_dot(pc - pa);
+        let scale =
+            (pb - pa).length_squared() + (pc - pb).length_squared() + (pa - pc).length_squared();
+        let t = [ring.verts[a], ring.verts[b], ring.verts[c]];
+        if area2.is_nan() || area2 <= 1e-12 * scale || self.normal3(t).dot(normal) <= 0.0 {
+            return None;
+        }
+        Some(self.quality3(t))
     }
 
     fn area3(&self, t: [u32; 3]) -> f64 {
@@ -1440,20 +1438,19 @@ mod tests {
             positions,
             triangles,
         };
-        let s = Simplifier::new(&mesh, 0.0, f64::INFINITY, false);
+        let mut s = Simplifier::new(&mesh, 0.0, f64::INFINITY, false);
         let plan = s.plan(0).expect("a removal of the centre");
         let made = plan.triangles.as_ref().expect("the ring retriangulated");
         assert_eq!(made.len(), k as usize - 2);
         let ring = s.ring(0).unwrap();
+        let flat = s.flatten(0, &ring, None).unwrap();
         for ui in 0..k as usize {
             let fan = Simplifier::fan(&ring, ui);
-            let flat = s.flatten(0, &ring, None).unwrap();
             let folds = fan
                 .iter()
                 .any(|&(_, [a, b, c])| (flat[b] - flat[a]).perp_dot(flat[c] - flat[a]) <= 0.0);
             assert!(folds, "the fan from {ui} fills the ring");
         }
-        let mut s = s;
         s.collapse(0, &plan);
         let base = s.base();
         assert_eq!(base.triangles.len(), k as usize - 2);
