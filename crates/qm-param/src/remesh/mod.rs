@@ -691,7 +691,7 @@ fn remesh_charts(
         .flatten();
     drop(passed);
     let refold_goals: Vec<usize> = (0..bases.len()).map(|c| goal(c, first_level)).collect();
-    let sample = |bases: Vec<simplify::Base>, level: u32, give_up: Option<&[usize]>| {
+    let sample = |bases: Vec<simplify::Base>, level: u32, give_up: Option<usize>| {
         sample_charts(
             mesh,
             cleaned.clone(),
@@ -703,40 +703,38 @@ fn remesh_charts(
             options,
         )
     };
+    // A remesh made to the end: only a part allowed to give up does.
+    let whole = |bases: Vec<simplify::Base>, level: u32| {
+        sample(bases, level, None).map(|r| r.expect("only a part allowed to give up does"))
+    };
+    let Some(shallower) = shallower else {
+        return whole(bases, level);
+    };
     // The part holding most of the surface, where a shallower level gives
     // it a larger base: where its base shows too coarse, the first try
     // gives up for the shallower level. (Every part's base grows four
     // times there, which only the part deciding most of the error is worth:
     // one of snowden's small parts, 1,064 triangles on a base of 6, first
     // folded 41, and its refold held them on 204 base triangles.)
-    let larger: Option<Vec<usize>> = shallower.as_ref().map(|shallower| {
-        (0..bases.len())
-            .filter(|&c| shares[c] > 0.5 && shallower[c].triangles.len() > bases[c].triangles.len())
-            .collect()
-    });
-    let Some(shallower) = shallower else {
-        return sample(bases, level, None).map(|r| r.expect("no part gives up without a deeper"));
-    };
-    let first = match sample(bases.clone(), level, larger.as_deref()) {
-        Ok(Some(first)) => Some(Ok(first)),
-        Ok(None) => None,
-        Err(e) => Some(Err(e)),
-    };
+    let decider = (0..bases.len())
+        .find(|&c| shares[c] > 0.5 && shallower[c].triangles.len() > bases[c].triangles.len());
+    // The bases again for a first try that gave up, should the shallower
+    // level fail too.
+    let kept = decider.map(|_| bases.clone());
+    let first = sample(bases, level, decider).transpose();
     let poor = first.as_ref().is_none_or(|first| {
         first
             .as_ref()
             .map_or(true, |r| r.report.psnr.is_some_and(|p| p < RETRY_BELOW_DB))
     });
     if !poor {
-        return first.expect("a first try that is not poor");
+        return first.expect("a first try that did not give up");
     }
-    let second = sample(shallower, level - 1, None).map(|r| r.expect("no part gives up"));
-    // A first try that gave up is made whole where the shallower level
-    // fails too.
-    let first = match first {
-        Some(first) => first,
-        None if second.is_err() => sample(bases, level, None).map(|r| r.expect("no part gives up")),
-        None => return second,
+    let second = whole(shallower, level - 1);
+    let first = match (first, kept) {
+        (Some(first), _) => first,
+        (None, Some(bases)) if second.is_err() => whole(bases, level),
+        _ => return second,
     };
     let psnr = |r: &Result<Remeshed>| {
         r.as_ref()
@@ -755,9 +753,9 @@ fn remesh_charts(
 /// `level` (remeshing again around folds towards `refold_goals`), then
 /// measures the remesh.
 ///
-/// With `give_up` (the parts that would make a shallower level worth it,
-/// sorted), returns `None` as soon as one of those parts shows that its base is too
-/// coarse: its map still folds after the refolds, or a refold needs (or,
+/// With `give_up` (the part that would make a shallower level worth it),
+/// returns `None` as soon as that part shows that its base is too coarse:
+/// its map still folds after the refolds, or a refold needs (or,
 /// for a part stuck over its goal, would need) more than [`BASE_SLACK`]
 /// times its first base to hold its folded triangles.
 /// The full dragon at level 4 first folded 83 input triangles on 1,394
@@ -771,7 +769,7 @@ fn sample_charts(
     mut bases: Vec<simplify::Base>,
     level: u32,
     refold_goals: &[usize],
-    give_up: Option<&[usize]>,
+    give_up: Option<usize>,
     input_triangles: u64,
     options: &RemeshOptions,
 ) -> Result<Option<Remeshed>> {
@@ -790,7 +788,7 @@ fn sample_charts(
         )
     };
     check_memory(&bases)?;
-    let gives_up = |c: usize| give_up.is_some_and(|parts| parts.binary_search(&c).is_ok());
+    let gives_up = |c: usize| give_up == Some(c);
     // Each part's stars and adjacency, then its map untangled (`None`: the
     // part gave up).
     let domains: Vec<Option<charts::Domain>> = bases
@@ -827,13 +825,15 @@ fn sample_charts(
             // refold kept 211 corners: 1,394 base triangles to 1,888, 1,816
             // estimated, in 37 s.)
             let stuck = size as f64 > BASE_SLACK * refold_goals[c] as f64;
-            let corners = keep
-                .iter()
-                .zip(&base.location)
-                .filter(|&(&k, l)| k && matches!(l, simplify::Location::Face(..)))
-                .count();
-            if stuck && too_coarse((size + 2 * corners) as f64) {
-                return Ok(None);
+            if gives_up(c) && stuck && !folded.is_empty() {
+                let corners = keep
+                    .iter()
+                    .zip(&base.location)
+                    .filter(|&(&k, l)| k && matches!(l, simplify::Location::Face(..)))
+                    .count();
+                if too_coarse((size + 2 * corners) as f64) {
+                    return Ok(None);
+                }
             }
             for _ in 0..REFOLD_TRIES {
                 if folded.is_empty() {
