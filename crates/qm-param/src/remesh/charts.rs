@@ -1077,12 +1077,15 @@ fn untangle_vertex(
 /// judged the same way whichever of its corners moves. The neighbourhood
 /// widens while folds remain.
 ///
-/// Returns the triangles still folded.
+/// Returns the triangles still folded, early (after a sweep with the fold
+/// penalty) where `hopeless` says of them that they are too many to be
+/// worth going on for.
 pub(super) fn untangle_knots(
     mesh: &TriMesh,
     base: &mut Base,
     domain: &Domain,
     sweeps: usize,
+    hopeless: &dyn Fn(&Base, &[u32]) -> bool,
 ) -> Vec<u32> {
     let mut knots = Knots::new(mesh, domain);
     let n = mesh.positions.len();
@@ -1127,6 +1130,9 @@ pub(super) fn untangle_knots(
         knots.penalty = FOLD_PENALTY;
         knots.sweep(base, &region, &inside, sweeps);
         folded = folded_now(&knots, base);
+        if hopeless(base, &folded) {
+            break;
+        }
         if !folded.is_empty() {
             let kept = base.location.clone();
             knots.penalty = 0.0;
@@ -1907,7 +1913,7 @@ mod tests {
         assert!(swapped >= 5, "{swapped} swaps");
         let tangled = folds(&mesh, &domain, &base);
         assert!(tangled > 0, "the swaps fold the map");
-        let left = super::untangle_knots(&mesh, &mut base, &domain, 50).len();
+        let left = super::untangle_knots(&mesh, &mut base, &domain, 50, &|_, _| false).len();
         assert_eq!(left, 0, "{tangled} folds, {left} left");
         assert_eq!(folds(&mesh, &domain, &base), 0);
     }
@@ -1962,7 +1968,18 @@ mod tests {
         assert!(tangled >= 20, "{tangled} folds");
         super::untangle_map(&mesh, &mut base, &domain, 50);
         let single = folds(&mesh, &domain, &base);
-        let left = super::untangle_knots(&mesh, &mut base, &domain, 50).len();
+        // Told after its first neighbourhood that the folds left are
+        // hopeless, the untangling returns them at once.
+        let mut early = base.clone();
+        let asked = std::cell::Cell::new(0);
+        let hopeless = |_: &super::Base, _: &[u32]| {
+            asked.set(asked.get() + 1);
+            true
+        };
+        let stopped = super::untangle_knots(&mesh, &mut early, &domain, 50, &hopeless);
+        assert_eq!(asked.get(), 1);
+        assert_eq!(stopped.len(), folds(&mesh, &domain, &early));
+        let left = super::untangle_knots(&mesh, &mut base, &domain, 50, &|_, _| false).len();
         assert_eq!(
             left, 0,
             "{tangled} folds, {single} after single moves, {left} after knots"
