@@ -29,14 +29,19 @@
 //! has removed nothing yet.
 
 use std::cmp::Ordering;
-use std::collections::HashSet;
 
+use foldhash::fast::FixedState;
 use priority_queue::PriorityQueue;
 
 use qm_lift::glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
 use crate::TriMesh;
+
+/// Hash maps and sets of vertex and edge ids, with a fast fixed hasher
+/// (the std one's SipHash showed in the profile of a large mesh).
+type HashMap<K, V> = std::collections::HashMap<K, V, FixedState>;
+type HashSet<K> = std::collections::HashSet<K, FixedState>;
 
 /// Weight of the ring's area against the squared quadric error.
 const AREA_WEIGHT: f64 = 0.02;
@@ -426,8 +431,8 @@ impl<'a> Simplifier<'a> {
             }
         }
         // Edges with their faces, for boundaries and creases.
-        let mut edge_faces: std::collections::HashMap<u64, Vec<u32>> =
-            std::collections::HashMap::with_capacity(3 * mesh.triangles.len() / 2);
+        let mut edge_faces: HashMap<u64, Vec<u32>> =
+            HashMap::with_capacity_and_hasher(3 * mesh.triangles.len() / 2, FixedState::default());
         for (f, t) in mesh.triangles.iter().enumerate() {
             for i in 0..3 {
                 edge_faces
@@ -437,7 +442,7 @@ impl<'a> Simplifier<'a> {
             }
         }
         let cos_crease = CREASE_DEGREES.to_radians().cos();
-        let mut creases = HashSet::new();
+        let mut creases = HashSet::default();
         let mut boundary_edges = 0usize;
         for (&key, fs) in &edge_faces {
             let sharp = match fs.as_slice() {
@@ -493,7 +498,7 @@ impl<'a> Simplifier<'a> {
     /// feature edges and adds the feature lines' quadrics.
     fn prune_creases(
         &mut self,
-        edge_faces: &std::collections::HashMap<u64, Vec<u32>>,
+        edge_faces: &HashMap<u64, Vec<u32>>,
         min_length: f64,
         most_ends: f64,
     ) {
@@ -505,8 +510,7 @@ impl<'a> Simplifier<'a> {
             degree[a as usize] += 1;
             degree[b as usize] += 1;
         }
-        let mut adjacency: std::collections::HashMap<u32, Vec<u32>> =
-            std::collections::HashMap::new();
+        let mut adjacency: HashMap<u32, Vec<u32>> = HashMap::default();
         for &key in &self.creases {
             let (a, b) = ends(key);
             adjacency.entry(a).or_default().push(b);
@@ -536,7 +540,7 @@ impl<'a> Simplifier<'a> {
             .collect();
         // Walk chains between vertices of degree other than 2, and sharp
         // turns.
-        let mut seen: HashSet<u64> = HashSet::new();
+        let mut seen: HashSet<u64> = HashSet::default();
         let mut drop = Vec::new();
         let mut long: Vec<(f64, Vec<u64>)> = Vec::new();
         let mut keys: Vec<u64> = self.creases.iter().copied().collect();
@@ -584,9 +588,9 @@ impl<'a> Simplifier<'a> {
         }
         // Longest first (stable: the chains came in key order).
         long.sort_by(|a, b| b.0.total_cmp(&a.0));
-        let mut held: HashSet<u32> = HashSet::new();
+        let mut held: HashSet<u32> = HashSet::default();
         for (_, chain) in long {
-            let mut touches = std::collections::HashMap::<u32, u32>::new();
+            let mut touches = HashMap::<u32, u32>::default();
             for &k in &chain {
                 let (a, b) = ends(k);
                 *touches.entry(a).or_default() += 1;
@@ -643,7 +647,7 @@ impl<'a> Simplifier<'a> {
 
     /// Whether crease `chain`'s dihedral angle is nearly the same all along
     /// it ([`CLEAN_CREASE_CV`]).
-    fn clean(&self, chain: &[u64], edge_faces: &std::collections::HashMap<u64, Vec<u32>>) -> bool {
+    fn clean(&self, chain: &[u64], edge_faces: &HashMap<u64, Vec<u32>>) -> bool {
         let angles: Vec<f64> = chain
             .iter()
             .filter_map(|k| match edge_faces[k].as_slice() {
@@ -866,21 +870,6 @@ impl<'a> Simplifier<'a> {
             if !ring.closed && ui != 0 && ui != ring.verts.len() - 1 {
                 continue;
             }
-            // Link condition: the common neighbours of u and v are the
-            // vertices opposite their edge.
-            let opposite = ring
-                .faces
-                .iter()
-                .map(|&f| self.faces[f as usize])
-                .filter(|t| t.contains(&u))
-                .count();
-            let common = v_neighbours
-                .iter()
-                .filter(|&&w| w != u && self.adjacent(u, w))
-                .count();
-            if common != opposite {
-                continue;
-            }
             let lined;
             let flat = match bi {
                 Some(bi) if ring.closed => {
@@ -900,7 +889,26 @@ impl<'a> Simplifier<'a> {
                 continue;
             };
             let cost = cost(u, quality);
-            if best.as_ref().is_none_or(|b| cost < b.cost) {
+            if best
+                .as_ref()
+                .is_some_and(|b| cost.partial_cmp(&b.cost) != Some(Ordering::Less))
+            {
+                continue;
+            }
+            // Link condition (checked last, for the one candidate that
+            // would win): the common neighbours of u and v are the
+            // vertices opposite their edge.
+            let opposite = ring
+                .faces
+                .iter()
+                .map(|&f| self.faces[f as usize])
+                .filter(|t| t.contains(&u))
+                .count();
+            let common = v_neighbours
+                .iter()
+                .filter(|&&w| w != u && self.adjacent(u, w))
+                .count();
+            if common == opposite {
                 best = Some(Plan {
                     u,
                     cost,
@@ -1067,7 +1075,7 @@ impl<'a> Simplifier<'a> {
             .filter(|&v| self.stamp[v as usize] == 0)
             .filter_map(|v| self.plan(v).map(|p| (v, Cost { cost: p.cost, v })))
             .collect();
-        let mut queue: PriorityQueue<u32, Cost> = first.into_iter().collect();
+        let mut queue: PriorityQueue<u32, Cost, FixedState> = first.into_iter().collect();
         self.pass_checkpoints();
         while self.alive_faces > target {
             let Some((v, planned)) = queue.pop() else {
