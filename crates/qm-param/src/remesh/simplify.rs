@@ -291,7 +291,9 @@ struct Simplifier<'a> {
     crease_degree: Vec<u8>,
     quadric: Vec<Quadric>,
     location: Vec<Location>,
-    stamp: Vec<u32>,
+    /// Per vertex: whether a run has planned it again since the first
+    /// plans (its ring changed, or its plan was out of date).
+    touched: Vec<bool>,
     alive_faces: usize,
     alive_vertices: usize,
     closed: bool,
@@ -475,7 +477,7 @@ impl<'a> Simplifier<'a> {
             crease_degree: vec![0; n],
             quadric,
             location: vec![Location::Vertex; n],
-            stamp: vec![0; n],
+            touched: vec![false; n],
             alive_faces: mesh.triangles.len(),
             alive_vertices: n,
             closed,
@@ -1072,7 +1074,7 @@ impl<'a> Simplifier<'a> {
         let first: Vec<(u32, Cost)> = (0..self.positions.len() as u32)
             .into_par_iter()
             .with_min_len(1024)
-            .filter(|&v| self.stamp[v as usize] == 0)
+            .filter(|&v| !self.touched[v as usize])
             .filter_map(|v| self.plan(v).map(|p| (v, Cost { cost: p.cost, v })))
             .collect();
         let mut queue: PriorityQueue<u32, Cost, FixedState> = first.into_iter().collect();
@@ -1083,14 +1085,14 @@ impl<'a> Simplifier<'a> {
             };
             let Some(plan) = self.plan(v) else { continue };
             if plan.cost > planned.cost * (1.0 + 1e-9) + 1e-300 {
-                self.stamp[v as usize] += 1;
+                self.touched[v as usize] = true;
                 queue.push(v, Cost { cost: plan.cost, v });
                 continue;
             }
             let touched = self.collapse(v, &plan);
             self.pass_checkpoints();
             for w in touched {
-                self.stamp[w as usize] += 1;
+                self.touched[w as usize] = true;
                 match self.plan(w) {
                     Some(p) => queue.push(w, Cost { cost: p.cost, v: w }),
                     None => queue.remove(&w).map(|(_, c)| c),
