@@ -1,5 +1,5 @@
 //! `stress DIR`: generated meshes whose topology or facets are hard on a
-//! codec: four large ones,
+//! codec: five large ones,
 //!
 //! - `genus12.obj`: a closed, wavy plate with a 4 x 3 grid of holes, genus
 //!   12, the zero set of a signed distance function extracted by marching
@@ -14,6 +14,9 @@
 //!   grid of a sum of sines inside a ragged outline with a few missing
 //!   patches and per-vertex noise; one connected manifold surface with
 //!   boundary.
+//! - `pocked.obj`: a scan with hundreds of small holes: a bumpy subdivided
+//!   icosahedron (10,242 vertices) with per-vertex noise and 2% of its
+//!   triangles missing, one or two at each hole.
 //!
 //!
 //! And six small faceted shapes, every edge a crease (the remesher sends
@@ -42,6 +45,10 @@ const PLATE_STEP: f64 = 0.052;
 const SPHERE_LEVEL: u32 = 6;
 /// Vertices per side of the height field's grid.
 const FIELD_SIDE: usize = 300;
+/// Subdivisions of the pocked sphere's icosahedron (10,242 vertices).
+const POCKED_LEVEL: u32 = 5;
+/// Share of the pocked sphere's triangles missing.
+const POCKED_SHARE: f64 = 0.02;
 
 pub fn run(args: &[String]) -> Result<(), String> {
     let [dir] = args else {
@@ -54,6 +61,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
         ("holes100.obj", holed_sphere(SPHERE_LEVEL, 100)),
         ("parts300.obj", parts(300)),
         ("heightfield.obj", height_field(FIELD_SIDE)),
+        ("pocked.obj", pocked_sphere(POCKED_LEVEL, POCKED_SHARE)),
         ("cube.obj", grid_box(1, DVec3::splat(0.5))),
         ("tetrahedron.obj", tetrahedron()),
         ("lprism.obj", l_prism()),
@@ -535,6 +543,26 @@ fn holed_sphere(level: u32, holes: usize) -> Tris {
     tris
 }
 
+/// A scan with many small holes: `icosphere(level)`, bumped as the holed
+/// sphere, its vertices moved by up to 0.3% of the radius along the
+/// normal, and a `share` of its triangles dropped (then pinches pruned).
+fn pocked_sphere(level: u32, share: f64) -> Tris {
+    let mut tris = icosphere(level);
+    let mut i = 0u64;
+    tris.faces.retain(|_| {
+        i += 1;
+        unit(41, i) >= share
+    });
+    prune_pinches(&mut tris);
+    for (i, p) in tris.positions.iter_mut().enumerate() {
+        let (x, y, z) = (p.x, p.y, p.z);
+        let bump = 0.02 * (5.0 * x + 1.0).sin() * (4.0 * y).cos() * (6.0 * z + 2.0).sin();
+        *p *= 1.0 + bump + between(42, i as u64, -0.003, 0.003);
+    }
+    tris.compact();
+    tris
+}
+
 /// Removes faces until no vertex is pinched: at a vertex where several fans
 /// meet, all but the largest fan go.
 fn prune_pinches(tris: &mut Tris) {
@@ -964,6 +992,18 @@ mod tests {
         assert!(t.whole.manifold, "{t}");
         assert_eq!(t.parts.len(), 1, "{t}");
         assert_eq!(t.whole.boundary_loops, 100, "{t}");
+        assert_eq!(t.genus(), Some(0), "{t}");
+    }
+
+    #[test]
+    fn pocked_sphere_has_hundreds_of_small_holes() {
+        let tris = pocked_sphere(POCKED_LEVEL, POCKED_SHARE);
+        let t = Topology::of(&tris);
+        assert!(t.whole.manifold, "{t}");
+        assert_eq!(t.parts.len(), 1, "{t}");
+        assert!(t.whole.boundary_loops >= 300, "{t}");
+        // Small holes: one or two missing triangles each, on average.
+        assert!(t.whole.boundary_edges <= 5 * t.whole.boundary_loops, "{t}");
         assert_eq!(t.genus(), Some(0), "{t}");
     }
 
