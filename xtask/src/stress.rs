@@ -534,18 +534,22 @@ fn holed_sphere(level: u32, holes: usize) -> Tris {
     });
     prune_pinches(&mut tris);
     for p in &mut tris.positions {
-        let (x, y, z) = (p.x, p.y, p.z);
-        let bump = 0.02 * (5.0 * x + 1.0).sin() * (4.0 * y).cos() * (6.0 * z + 2.0).sin()
-            + 0.006 * (23.0 * x).sin() * (19.0 * z + 1.0).sin();
+        let bump = broad_bump(*p) + 0.006 * (23.0 * p.x).sin() * (19.0 * p.z + 1.0).sin();
         *p *= 1.0 + bump;
     }
     tris.compact();
     tris
 }
 
-/// A scan with many small holes: `icosphere(level)`, bumped as the holed
-/// sphere, its vertices moved by up to 0.3% of the radius along the
-/// normal, and a `share` of its triangles dropped (then pinches pruned).
+/// The holed and pocked spheres' broad bumps, a share of the radius at `p`.
+fn broad_bump(p: DVec3) -> f64 {
+    0.02 * (5.0 * p.x + 1.0).sin() * (4.0 * p.y).cos() * (6.0 * p.z + 2.0).sin()
+}
+
+/// A scan with many small holes: `icosphere(level)` with the holed
+/// sphere's broad bumps, its vertices moved by up to 0.3% of the radius
+/// along the normal, and a `share` of its triangles dropped (then pinches
+/// pruned).
 fn pocked_sphere(level: u32, share: f64) -> Tris {
     let mut tris = icosphere(level);
     let mut i = 0u64;
@@ -555,9 +559,7 @@ fn pocked_sphere(level: u32, share: f64) -> Tris {
     });
     prune_pinches(&mut tris);
     for (i, p) in tris.positions.iter_mut().enumerate() {
-        let (x, y, z) = (p.x, p.y, p.z);
-        let bump = 0.02 * (5.0 * x + 1.0).sin() * (4.0 * y).cos() * (6.0 * z + 2.0).sin();
-        *p *= 1.0 + bump + between(42, i as u64, -0.003, 0.003);
+        *p *= 1.0 + broad_bump(*p) + between(42, i as u64, -0.003, 0.003);
     }
     tris.compact();
     tris

@@ -779,7 +779,14 @@ pub(crate) fn noise_bits(
     let split = split_of(faces, values.len(), version);
     let predictor = Predictor::new(faces, values.len(), split.as_deref());
     let coded = coded_values(split.as_deref(), values.len(), implied);
-    let mut residuals: Vec<u64> = (0..coded)
+    let keeps = if split.is_some() { SPLIT_KEEPS } else { KEEPS };
+    median_residual_length(&predictor, &values[..coded]).saturating_sub(keeps)
+}
+
+/// The bit length of the median of `values`' prediction residuals, over
+/// all coordinates (0 for no values).
+fn median_residual_length(predictor: &Predictor, values: &[[i32; 3]]) -> u32 {
+    let mut residuals: Vec<u64> = (0..values.len())
         .flat_map(|v| {
             let p = predictor.predict(v, values);
             (0..3).map(move |i| (values[v][i] as i64 - p[i]).unsigned_abs())
@@ -790,8 +797,7 @@ pub(crate) fn noise_bits(
     }
     let middle = residuals.len() / 2;
     let median = *residuals.select_nth_unstable(middle).1;
-    let keeps = if split.is_some() { SPLIT_KEEPS } else { KEEPS };
-    (64 - median.leading_zeros()).saturating_sub(keeps)
+    64 - median.leading_zeros()
 }
 
 /// Bits of the median residual that [`noise_bits`] leaves in the base
@@ -803,7 +809,7 @@ const KEEPS: u32 = 2;
 /// of triangles, and its section is most of what a cut below 65 dB holds;
 /// the bit it no longer keeps arrives in the stream with the pass of its
 /// weight. Over 13 inputs (docs/base-values.md, "Split bases") the section
-/// shrank by 15 to 20% and the PSNR of the base alone by at most 0.7 dB
+/// shrank by 15 to 18% and the PSNR of the base alone by at most 0.7 dB
 /// (charts); at equal bytes the charts' remeshes gained 1.8 to 3.1 dB
 /// between 50 and 65 dB and -0.4 to +0.7 dB between 60 and 78 dB, and two
 /// inputs sent as their own triangles came to 65 dB in 0.87 and 0.89 of
@@ -1157,21 +1163,14 @@ mod tests {
         assert!(encode(&faces, &high, 2, false).len() < encode(&faces, &values, 2, false).len());
     }
 
-    /// The bit length of the median prediction residual of `values`.
+    /// The bit length of the median prediction residual of `values`, over
+    /// `triangles` when they are given.
     fn median_length(
         faces: &[[u32; 4]],
         values: &[[i32; 3]],
         triangles: Option<&[[u32; 3]]>,
     ) -> u32 {
-        let predictor = Predictor::new(faces, values.len(), triangles);
-        let mut residuals: Vec<u64> = (0..values.len())
-            .flat_map(|v| {
-                let p = predictor.predict(v, values);
-                (0..3).map(move |i| (values[v][i] as i64 - p[i]).unsigned_abs())
-            })
-            .collect();
-        residuals.sort_unstable();
-        64 - residuals[residuals.len() / 2].leading_zeros()
+        median_residual_length(&Predictor::new(faces, values.len(), triangles), values)
     }
 
     /// A split base keeps the leading one of its median residual in the
