@@ -3,7 +3,7 @@
 mod common;
 
 use common::{QUAD_MODELS, asset, rms};
-use qm::{DecodeOptions, EncodeOptions, Weighting};
+use qm::{DecodeOptions, EncodeOptions, LevelChoice, Weighting};
 
 /// After all passes the decoder returns exactly the quantized samples, and
 /// those are the input vertices, quantized.
@@ -165,7 +165,7 @@ fn coarser_levels_decode() {
     for level in 0..=3u32 {
         let decoded = qm::codec::decompress(
             &compressed.bytes,
-            &DecodeOptions::default().with_level(Some(level)),
+            &DecodeOptions::default().with_level(LevelChoice::Fixed(level)),
         )
         .unwrap();
         let (positions, quads) = decoded.level_mesh();

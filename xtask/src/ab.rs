@@ -216,11 +216,8 @@ pub fn run(args: &[String]) -> Result<(), String> {
                 .chain([c.bytes.len()]);
             for bytes in budgets {
                 bar.set_message(format!("{name}: {label} {bytes} B"));
-                let d = qm::decode(
-                    &c.bytes,
-                    &DecodeOptions::default().with_max_bytes(Some(bytes)),
-                )
-                .map_err(|e| at(e.to_string()))?;
+                let d = qm::decode(&c.bytes, &DecodeOptions::FINEST.with_max_bytes(Some(bytes)))
+                    .map_err(|e| at(e.to_string()))?;
                 let report = rd::measure(&input, &d.mesh).map_err(at)?;
                 curve.push((bytes, report.psnr_db));
                 bar.inc(1);

@@ -92,7 +92,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
         // PSNR after each pass until the last target is passed.
         let mut psnr = Vec::new();
         for p in 1..=budgets.len() as u32 {
-            let d = qm::decode(&c.bytes, &DecodeOptions::default().with_passes(Some(p)))
+            let d = qm::decode(&c.bytes, &DecodeOptions::FINEST.with_passes(Some(p)))
                 .map_err(|e| at(e.to_string()))?;
             let db = rd::measure(&input, &d.mesh).map_err(at)?.psnr_db;
             psnr.push(db);

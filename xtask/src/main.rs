@@ -134,10 +134,10 @@ fn pass_table(args: &[String]) -> Result<(), String> {
                 .get(p as usize - 1)
                 .copied()
                 .unwrap_or(compressed.bytes.len());
-            let db = psnr(DecodeOptions::default().with_passes(Some(p)))?;
+            let db = psnr(DecodeOptions::FINEST.with_passes(Some(p)))?;
             cells.push(format!("{} B, {db:.1} dB", bytes));
         }
-        let db = psnr(DecodeOptions::default())?;
+        let db = psnr(DecodeOptions::FINEST)?;
         println!(
             "| {name} | {} KB, {} vertices | {} B ({} quads, level {}) | {} | {} B, {db:.1} dB |",
             input_bytes / 1024,

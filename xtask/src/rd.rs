@@ -410,7 +410,7 @@ fn model(file: &Path, draco: Option<&Draco>, bar: &ProgressBar) -> Result<ModelR
             .unwrap_or(full);
         let db = decode(
             format!("passes={p}"),
-            DecodeOptions::default().with_passes(Some(p)),
+            DecodeOptions::FINEST.with_passes(Some(p)),
             bytes,
         )?;
         passes.push((p, bytes - first, db));
@@ -419,12 +419,12 @@ fn model(file: &Path, draco: Option<&Draco>, bar: &ProgressBar) -> Result<ModelR
         bar.set_message(format!("{name}: qm {bytes} B"));
         decode(
             format!("bytes={bytes}"),
-            DecodeOptions::default().with_max_bytes(Some(bytes)),
+            DecodeOptions::FINEST.with_max_bytes(Some(bytes)),
             bytes,
         )?;
     }
     bar.set_message(format!("{name}: qm lossless"));
-    decode("lossless".into(), DecodeOptions::default(), full)?;
+    decode("lossless".into(), DecodeOptions::FINEST, full)?;
 
     let mut draco_missing = None;
     if let Some(draco) = draco {

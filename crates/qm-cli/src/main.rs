@@ -459,7 +459,7 @@ fn decompress(
         .with_limits(limits)
         .with_max_bytes(bytes)
         .with_passes(passes)
-        .with_level(level);
+        .with_level(level.map_or(qm::LevelChoice::Auto, qm::LevelChoice::Fixed));
     let qm::Decoded {
         mesh, raw: decoded, ..
     } = qm::decode(&data, &options).map_err(|e| Failure::about(input, e))?;

@@ -14,6 +14,7 @@ use rayon::prelude::*;
 
 use crate::container::{self, BaseSection, Header, Limits};
 use crate::holds::{self, Probes};
+use crate::levels::{self, DEFAULT_TOLERANCE_DB, Estimate, LevelChoice};
 use crate::{Error, Result, basecode};
 
 /// Default extra weight, in bits, of the normal component of the details.
@@ -543,20 +544,52 @@ fn header_len(bytes: &[u8]) -> usize {
 }
 
 /// Decoder settings.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 #[non_exhaustive]
 pub struct DecodeOptions {
     /// Use only the first this many bytes, as if the rest never arrived.
     pub max_bytes: Option<usize>,
     /// Decode at most this many passes.
     pub passes: Option<u32>,
-    /// Reconstruct this subdivision level (default: the finest).
-    pub level: Option<u32>,
+    /// Which level to reconstruct (default: [`LevelChoice::Auto`], the
+    /// level the bytes support).
+    pub level: LevelChoice,
+    /// Stop at the first pass end whose estimated error
+    /// ([`Estimate::remaining`], model units) is at most this, using no
+    /// more of the stream.
+    pub max_error: Option<f64>,
+    /// Output no level with more triangles than this (two per quad; level
+    /// 0 if even that has more).
+    pub max_triangles: Option<u64>,
+    /// How much worse, in dB of estimated PSNR, [`LevelChoice::Auto`] lets
+    /// its level be than the finest ([`DEFAULT_TOLERANCE_DB`]).
+    pub tolerance_db: f64,
     /// Limits on what the header may ask for.
     pub limits: Limits,
 }
 
+impl Default for DecodeOptions {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
 impl DecodeOptions {
+    /// Everything received, the level the bytes support, default limits.
+    pub const DEFAULT: DecodeOptions = DecodeOptions {
+        max_bytes: None,
+        passes: None,
+        level: LevelChoice::Auto,
+        max_error: None,
+        max_triangles: None,
+        tolerance_db: DEFAULT_TOLERANCE_DB,
+        limits: Limits::DEFAULT,
+    };
+
+    /// [`Self::DEFAULT`] at the finest level whatever the prefix, as the
+    /// codec's rate-distortion measurements decode.
+    pub const FINEST: DecodeOptions = Self::DEFAULT.with_level(LevelChoice::Finest);
+
     /// Sets the byte budget.
     pub const fn with_max_bytes(mut self, max_bytes: Option<usize>) -> Self {
         self.max_bytes = max_bytes;
@@ -569,9 +602,27 @@ impl DecodeOptions {
         self
     }
 
-    /// Sets the output level.
-    pub const fn with_level(mut self, level: Option<u32>) -> Self {
+    /// Sets how the output level is chosen.
+    pub const fn with_level(mut self, level: LevelChoice) -> Self {
         self.level = level;
+        self
+    }
+
+    /// Sets the error goal.
+    pub const fn with_max_error(mut self, max_error: Option<f64>) -> Self {
+        self.max_error = max_error;
+        self
+    }
+
+    /// Sets the triangle cap.
+    pub const fn with_max_triangles(mut self, max_triangles: Option<u64>) -> Self {
+        self.max_triangles = max_triangles;
+        self
+    }
+
+    /// Sets the tolerance of [`LevelChoice::Auto`].
+    pub const fn with_tolerance_db(mut self, tolerance_db: f64) -> Self {
+        self.tolerance_db = tolerance_db;
         self
     }
 
@@ -607,8 +658,11 @@ pub struct Decompressed {
     /// Stream bytes present.
     pub stream_bytes: usize,
     /// Stream bytes decoded: fewer than present when the cut falls inside
-    /// one of the header's holds ([`container::Header::hold_cut`]).
+    /// one of the header's holds ([`container::Header::hold_cut`]) or an
+    /// error goal was met sooner.
     pub decoded_stream_bytes: usize,
+    /// The decoder's estimate of the error of each level at this prefix.
+    pub estimate: Estimate,
 }
 
 impl Decompressed {
@@ -650,10 +704,9 @@ pub fn decompress(bytes: &[u8], options: &DecodeOptions) -> Result<Decompressed>
         .map_or(bytes.len(), |m| m.min(bytes.len()))];
     let decoder = Decoder::new(bytes, &options.limits)?;
     let mut values = Vec::new();
-    let status = decoder.decode_with(
+    let (status, estimate) = decoder.decode_choosing(
         &bytes[decoder.stream_start()..],
-        options.passes,
-        options.level,
+        options,
         &mut values,
         false,
     );
@@ -678,6 +731,7 @@ pub fn decompress(bytes: &[u8], options: &DecodeOptions) -> Result<Decompressed>
         header_bytes,
         base_bytes,
         layout,
+        estimate,
     })
 }
 
@@ -717,8 +771,9 @@ pub struct DecodeStatus {
     pub passes: u32,
     /// Whether the stream ended before the passes asked for.
     pub truncated: bool,
-    /// Stream bytes decoded: fewer than given when the cut falls inside one
-    /// of the header's holds ([`container::Header::hold_cut`]).
+    /// Stream bytes used: fewer than given when the cut falls inside one
+    /// of the header's holds ([`container::Header::hold_cut`]), or when the
+    /// passes asked for (or an error goal) ended sooner.
     pub decoded_bytes: usize,
 }
 
@@ -798,10 +853,146 @@ impl Decoder {
         values: &mut Vec<Coord>,
         resume: bool,
     ) -> DecodeStatus {
-        let mut params = self.header.stream_params();
-        if let Some(triangles) = &self.split {
-            params.base_values = basecode::corner_count(triangles) as u32;
+        let (decoded, used) = self.coefficients(stream, passes, resume);
+        self.fill(&decoded, values);
+        let level = level.map_or(self.layout.level(), |l| l.min(self.layout.level()));
+        self.lifting().inverse_to(values, level);
+        DecodeStatus {
+            level,
+            passes: decoded.passes,
+            truncated: decoded.truncated,
+            decoded_bytes: used,
         }
+    }
+
+    /// Decodes `stream` (as [`Self::decode_into`]) with `options`' pass
+    /// limit, error goal and level choice (its byte budget is the
+    /// caller's), into `values` at the level chosen; the decoder's estimate
+    /// of the error of each level (see [`crate::levels`]).
+    pub fn decode_choosing(
+        &self,
+        stream: &[u8],
+        options: &DecodeOptions,
+        values: &mut Vec<Coord>,
+        resume: bool,
+    ) -> (DecodeStatus, Estimate) {
+        let limit = options.passes.map_or(self.header.passes as u32, |p| {
+            p.min(self.header.passes as u32)
+        });
+        let (decoded, used) = match options.max_error {
+            Some(goal) => self.coefficients_to(stream, limit, goal, resume),
+            None => self.coefficients(stream, Some(limit), resume),
+        };
+        self.fill(&decoded, values);
+        let big_l = self.layout.level();
+        let diagonal = levels::diagonal(
+            values[..self.layout.base().vertex_count() as usize]
+                .iter()
+                .copied(),
+            self.header.step,
+        );
+        let remaining = levels::remaining(&self.header, &self.tree, &decoded, self.base_count());
+        let complete = !decoded.truncated && decoded.passes == self.header.passes as u32;
+        let lifting = self.lifting();
+        let status = |level| DecodeStatus {
+            level,
+            passes: decoded.passes,
+            truncated: decoded.truncated,
+            decoded_bytes: used,
+        };
+        let cap = |level: u32| match options.max_triangles {
+            Some(max) => (0..=level)
+                .rev()
+                .find(|&l| self.triangles_at(l) <= max)
+                .unwrap_or(0),
+            None => level,
+        };
+        let unknown = || {
+            let mut gaps = vec![f64::NAN; big_l as usize + 1];
+            gaps[big_l as usize] = 0.0;
+            gaps
+        };
+        if options.level == LevelChoice::Finest {
+            let level = cap(big_l);
+            lifting.inverse_to(values, level);
+            let estimate = Estimate {
+                remaining,
+                gaps: unknown(),
+                diagonal,
+            };
+            return (status(level), estimate);
+        }
+        // Levels past the finest one holding a significant coefficient
+        // add only the subdivision's smoothing: lift one level past it (two
+        // at least: on whole base faces the stencils reach irregular
+        // vertices everywhere and fall back to linear, so the step from
+        // level 0 to 1 has none to measure).
+        let levels = self.tree.levels();
+        let top = decoded
+            .nonzero
+            .iter()
+            .map(|e| levels[e.node as usize] as u32)
+            .max()
+            .unwrap_or(0);
+        let reach = (top + 1).max(2).min(big_l);
+        let mut steps = Vec::with_capacity(reach as usize);
+        let mut grid = Vec::new();
+        for j in 0..reach {
+            levels::level_grid(&self.layout, j, values, &mut grid);
+            lifting.inverse_levels(values, j, j + 1);
+            let gap = levels::step_gap(&self.layout, j, &grid, values);
+            steps.push(gap.model_rms(self.header.step));
+        }
+        let estimate = Estimate {
+            remaining,
+            gaps: levels::gaps_from_steps(&steps, big_l),
+            diagonal,
+        };
+        let wanted = match options.level {
+            LevelChoice::Fixed(l) => l.min(big_l),
+            _ if complete => big_l,
+            _ => estimate.coarsest_within(options.tolerance_db),
+        };
+        let level = cap(wanted);
+        if level < reach {
+            self.fill(&decoded, values);
+            lifting.inverse_to(values, level);
+        } else {
+            lifting.inverse_levels(values, reach, level);
+        }
+        (status(level), estimate)
+    }
+
+    /// Triangles of the mesh at `level`, two per quad.
+    pub fn triangles_at(&self, level: u32) -> u64 {
+        let level = level.min(self.layout.level());
+        2 * self.layout.face_count() as u64 * (1u64 << (2 * level))
+    }
+
+    /// How many base vertices have their low bits in the stream.
+    fn base_count(&self) -> u32 {
+        match &self.split {
+            Some(triangles) => basecode::corner_count(triangles) as u32,
+            None => self.header.base_vertices,
+        }
+    }
+
+    /// The lifting transform of the header.
+    fn lifting(&self) -> Lifting<'_> {
+        let update = UpdateRule::from_code(self.header.update).expect("checked by the container");
+        Lifting::new(&self.layout, update).with_parent_frames_from(self.header.parent_frames_from())
+    }
+
+    /// The stream's coefficients up to `passes` passes, and how many of
+    /// the stream's bytes they used.
+    fn coefficients(
+        &self,
+        stream: &[u8],
+        passes: Option<u32>,
+        resume: bool,
+    ) -> (qm_ezw::Decoded, usize) {
+        let mut params = self.header.stream_params();
+        params.base_values = self.base_count();
         let stream = &stream[..self.header.hold_cut(stream.len())];
         let decoded = if resume {
             let from = self.checkpoint.take();
@@ -812,12 +1003,45 @@ impl Decoder {
         } else {
             qm_ezw::decode(&self.tree, params, stream, passes)
         };
+        let used = if decoded.truncated {
+            stream.len()
+        } else {
+            decoded.bytes_read.min(stream.len())
+        };
+        (decoded, used)
+    }
+
+    /// The coefficients of the first pass end, up to `limit` passes, whose
+    /// estimated remaining error is at most `goal` (or of everything, if
+    /// none is), pass by pass from the checkpoints.
+    fn coefficients_to(
+        &self,
+        stream: &[u8],
+        limit: u32,
+        goal: f64,
+        resume: bool,
+    ) -> (qm_ezw::Decoded, usize) {
+        let base = self.base_count();
+        let mut passes = 0;
+        loop {
+            let (decoded, used) = self.coefficients(stream, Some(passes), resume);
+            let met = levels::remaining(&self.header, &self.tree, &decoded, base) <= goal;
+            if met || decoded.truncated || passes >= limit {
+                return (decoded, used);
+            }
+            passes += 1;
+        }
+    }
+
+    /// Base values, their low bits and the split base's derived values,
+    /// then the coefficients at their samples.
+    fn fill(&self, decoded: &qm_ezw::Decoded, values: &mut Vec<Coord>) {
+        let k = self.header.stream_params().base_bits;
         values.clear();
         values.resize(self.layout.sample_count(), [0; 3]);
         values[..self.base_values.len()].copy_from_slice(&self.base_values);
         if !decoded.base_low.is_empty() {
             // The container checked that high and low parts fit 32 bits.
-            let k = params.base_bits;
             for (v, low) in values.iter_mut().zip(&decoded.base_low) {
                 *v = std::array::from_fn(|c| (v[c] << k) + low[c]);
             }
@@ -828,17 +1052,6 @@ impl Decoder {
             basecode::snap_split(base.faces(), triangles, values, i64::MAX);
         }
         decoded.scatter(self.tree.samples(), values);
-        let level = level.map_or(self.layout.level(), |l| l.min(self.layout.level()));
-        let update = UpdateRule::from_code(self.header.update).expect("checked by the container");
-        Lifting::new(&self.layout, update)
-            .with_parent_frames_from(self.header.parent_frames_from())
-            .inverse_to(values, level);
-        DecodeStatus {
-            level,
-            passes: decoded.passes,
-            truncated: decoded.truncated,
-            decoded_bytes: stream.len(),
-        }
     }
 }
 
@@ -902,7 +1115,7 @@ mod tests {
         let mut values = Vec::new();
         for cut in (start..=c.bytes.len()).step_by(97).chain([c.bytes.len()]) {
             let status = decoder.decode_into(&c.bytes[start..cut], None, None, &mut values);
-            let d = decompress(&c.bytes[..cut], &DecodeOptions::default()).unwrap();
+            let d = decompress(&c.bytes[..cut], &DecodeOptions::FINEST).unwrap();
             assert_eq!(values, d.values, "cut {cut}");
             assert_eq!((status.passes, status.truncated), (d.passes, d.truncated));
         }
@@ -918,7 +1131,10 @@ mod tests {
     fn base_values_sharpen_pass_by_pass() {
         let mesh = sphere(4);
         let stream = compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
-        let whole = decompress(&stream.bytes, &DecodeOptions::default().with_level(Some(0)));
+        let whole = decompress(
+            &stream.bytes,
+            &DecodeOptions::default().with_level(LevelChoice::Fixed(0)),
+        );
         let mut truth = whole.unwrap().values;
         let decoder = Decoder::new(&stream.bytes, &Limits::DEFAULT).unwrap();
         truth.truncate(decoder.header().base_vertices as usize);
@@ -956,7 +1172,11 @@ mod tests {
         // the header bytes of holds past the budget.
         let c = compress(&mesh, &budget).unwrap();
         assert!((500..=600).contains(&c.bytes.len()), "{}", c.bytes.len());
-        let d = decompress(&c.bytes, &DecodeOptions::default().with_level(Some(2))).unwrap();
+        let d = decompress(
+            &c.bytes,
+            &DecodeOptions::default().with_level(LevelChoice::Fixed(2)),
+        )
+        .unwrap();
         assert!(d.truncated);
         let (positions, quads) = d.level_mesh();
         assert_eq!(quads.len(), 6 * 16);

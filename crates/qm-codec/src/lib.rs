@@ -18,6 +18,8 @@ mod codec;
 pub mod container;
 mod error;
 pub mod holds;
+pub mod levels;
+mod stream;
 
 pub use basecode::coded_base_values;
 pub use codec::{
@@ -27,5 +29,7 @@ pub use codec::{
 pub use container::{DEFAULT_MAX_MEMORY, Limits};
 pub use error::{Error, Result};
 pub use holds::Probes;
+pub use levels::{DEFAULT_TOLERANCE_DB, Estimate, LevelChoice};
 pub use qm_ezw::{self, Contexts, Weighting};
 pub use qm_lift::{self, UpdateRule};
+pub use stream::{LevelMesh, StreamDecoder};

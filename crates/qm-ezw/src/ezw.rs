@@ -228,6 +228,22 @@ pub struct Decoded {
     pub truncated: bool,
     /// Stream bytes read.
     pub bytes_read: usize,
+    /// When truncated: how far the pass after the complete ones got.
+    pub progress: Progress,
+}
+
+/// How far a pass got before the stream ended (what an estimate of the
+/// remaining error needs beyond the complete passes).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Progress {
+    /// Whether the pass coded its bits of the base values.
+    pub base: bool,
+    /// Detail levels, from level 1 on, whose bits of the pass were all
+    /// coded.
+    pub levels: u32,
+    /// Per detail level (index 0 is level 1) and coordinate: how many
+    /// coordinates became significant in the pass.
+    pub fresh: Vec<[u32; 3]>,
 }
 
 /// A decoded coordinate that is not zero.
@@ -506,6 +522,11 @@ fn run_decoder(
         passes: done,
         truncated,
         bytes_read: reader.position(),
+        progress: if truncated {
+            state.progress.clone()
+        } else {
+            Progress::default()
+        },
     };
     (decoded, saved)
 }
@@ -806,6 +827,8 @@ struct State {
     base_known: Vec<u32>,
     /// The lowest bit known of each base coordinate (`base_bits`: none).
     base_low: Vec<u8>,
+    /// How far the pass being coded has got.
+    progress: Progress,
 }
 
 impl State {
@@ -832,6 +855,7 @@ impl State {
             next: Vec::new(),
             base_known: vec![0; 3 * base_values],
             base_low: vec![params.base_bits as u8; 3 * base_values],
+            progress: Progress::default(),
         }
     }
 
@@ -886,9 +910,16 @@ impl State {
         oracle: &mut O,
     ) -> Result<(), Truncated> {
         let plane = self.params.planes as i32 - 1 - pass as i32;
+        self.progress.base = false;
+        self.progress.levels = 0;
+        self.progress.fresh.clear();
+        self.progress.fresh.resize(self.max_level as usize, [0; 3]);
         self.base_pass(plane, coder, oracle)?;
+        self.progress.base = true;
         let before: Vec<usize> = self.refine_lists.iter().map(Vec::len).collect();
-        self.dominant(tree, plane, &before, coder, oracle)
+        self.dominant(tree, plane, &before, coder, oracle)?;
+        self.progress.levels = self.max_level;
+        Ok(())
     }
 
     /// Bit `plane - s0` of every base coordinate, if the stream carries it:
@@ -1020,6 +1051,7 @@ impl State {
                             }
                         };
                         self.sig[k] |= 1 << c;
+                        self.progress.fresh[level as usize - 1][c] += 1;
                         if negative {
                             self.neg[k] |= 1 << c;
                         }
@@ -1062,6 +1094,7 @@ impl State {
                 }
                 next.extend(children.map(|c| c as u32));
             }
+            self.progress.levels = depth - 1;
             std::mem::swap(&mut frontier, &mut next);
         }
         self.frontier = frontier;

@@ -13,7 +13,8 @@ mod range;
 
 pub use ezw::{
     BaseBits, BitBudget, Checkpoint, Coef, Contexts, Cost, Decoded, Encoded, LEVEL_CLASSES,
-    MAX_BASE_BITS, Nonzero, StreamParams, Weighting, bit_budget, decode, decode_resuming, encode,
+    MAX_BASE_BITS, Nonzero, Progress, StreamParams, Weighting, bit_budget, decode, decode_resuming,
+    encode,
 };
 pub use qm_tree::{self, ZeroTree};
 pub use range::{BitReader, BitWriter, Context, ReaderSnapshot, Truncated};

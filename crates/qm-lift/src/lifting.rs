@@ -157,8 +157,14 @@ impl<'a> Lifting<'a> {
     /// [`Layout::samples_at`]) then hold its approximation; finer ones keep
     /// their details.
     pub fn inverse_to(&self, data: &mut [Coord], to: u32) {
+        self.inverse_levels(data, 0, to);
+    }
+
+    /// Synthesis from level `from` (whose samples hold its approximation,
+    /// as [`Self::inverse_to`] leaves them) up to level `to`.
+    pub fn inverse_levels(&self, data: &mut [Coord], from: u32, to: u32) {
         let mut scratch = self.scratch();
-        for level in 1..=to.min(self.layout.level()) {
+        for level in from + 1..=to.min(self.layout.level()) {
             if let Some(from) = self.frames {
                 frames::apply(self.layout, level, data, Turn::ToWorld, from);
             }
@@ -530,8 +536,16 @@ mod tests {
                     let lifting = Lifting::new(&layout, rule).with_parent_frames_from(frames);
                     lifting.forward(&mut data);
                     assert_ne!(data, original);
+                    let coefs = data.clone();
                     lifting.inverse(&mut data);
                     assert_eq!(data, original, "{rule:?}, parent frames from {frames:?}");
+                    // In two steps, through any level in between.
+                    for middle in 0..=layout.level() {
+                        let mut data = coefs.clone();
+                        lifting.inverse_to(&mut data, middle);
+                        lifting.inverse_levels(&mut data, middle, layout.level());
+                        assert_eq!(data, original, "{rule:?}, {frames:?}, via {middle}");
+                    }
                 }
             }
         }

@@ -15,7 +15,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use qm_codec::{DecodeOptions, Decoder, Limits, decompress};
-use qm_wasm::Incremental;
+use qm_wasm::Buffers;
 
 fn median(mut xs: Vec<f64>) -> f64 {
     xs.sort_by(f64::total_cmp);
@@ -24,10 +24,10 @@ fn median(mut xs: Vec<f64>) -> f64 {
 
 fn time(bytes: &[u8]) -> (f64, usize) {
     let t = Instant::now();
-    let mut inc = Incremental::new();
-    inc.push(bytes).expect("a valid file");
-    inc.refine(None).expect("a complete base mesh");
-    (t.elapsed().as_secs_f64() * 1e3, inc.vertex_count())
+    let mut inc = Buffers::default();
+    inc.decoder_mut().push(bytes).expect("a valid file");
+    inc.refine().expect("a complete base mesh");
+    (t.elapsed().as_secs_f64() * 1e3, inc.positions().len() / 3)
 }
 
 fn main() -> ExitCode {

@@ -5,13 +5,15 @@
 //! cargo run -p qm-wasm --example reference -- FILE.qm [BYTES [LEVEL]]
 //! ```
 //!
-//! prints one JSON line: bytes used, level, passes, vertices, triangles and
+//! (LEVEL: a number, `auto`, the default, or `finest`) prints one JSON
+//! line: bytes given and used, level, passes, vertices, triangles, the
+//! estimated error and PSNR, and
 //! the [`qm_wasm::mesh_checksum`] of the mesh (the viewer's triangulation of
 //! the quads, two triangles each).
 
 use std::process::ExitCode;
 
-use qm_codec::{DecodeOptions, decompress};
+use qm_codec::{DecodeOptions, LevelChoice, decompress};
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -28,9 +30,20 @@ fn main() -> ExitCode {
         }
     };
     let n = number(1).unwrap_or(bytes.len()).min(bytes.len());
+    let level = match args.get(2).map(String::as_str) {
+        None | Some("auto") => LevelChoice::Auto,
+        Some("finest") => LevelChoice::Finest,
+        Some(_) => match number(2) {
+            Some(l) => LevelChoice::Fixed(l as u32),
+            None => {
+                eprintln!("usage: reference FILE.qm [BYTES [LEVEL|auto|finest]]");
+                return ExitCode::from(2);
+            }
+        },
+    };
     let options = DecodeOptions::default()
         .with_max_bytes(Some(n))
-        .with_level(number(2).map(|l| l as u32));
+        .with_level(level);
     let d = match decompress(&bytes, &options) {
         Ok(d) => d,
         Err(e) => {
@@ -39,9 +52,26 @@ fn main() -> ExitCode {
         }
     };
     let (checksum, vertices, triangles) = qm_wasm::decompressed_checksum(&d);
+    let used = d.header_bytes + d.base_bytes + d.decoded_stream_bytes;
+    let error = d.estimate.error(d.level);
+    let psnr = d.estimate.psnr_db(d.level);
     println!(
-        "{{\"bytes\":{n},\"level\":{},\"passes\":{},\"vertices\":{},\"triangles\":{},\"checksum\":\"{checksum:016x}\"}}",
-        d.level, d.passes, vertices, triangles
+        "{{\"bytes\":{n},\"bytesUsed\":{used},\"level\":{},\"passes\":{},\"vertices\":{},\"triangles\":{},\"error\":{},\"psnr\":{},\"checksum\":\"{checksum:016x}\"}}",
+        d.level,
+        d.passes,
+        vertices,
+        triangles,
+        json_number(error),
+        json_number(psnr)
     );
     ExitCode::SUCCESS
+}
+
+/// A JSON number, or `null` for what JSON cannot hold.
+fn json_number(x: f64) -> String {
+    if x.is_finite() {
+        format!("{x:e}")
+    } else {
+        "null".to_string()
+    }
 }

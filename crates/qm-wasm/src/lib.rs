@@ -1,230 +1,75 @@
-//! An incremental `.qm` decoder for viewers that receive a file in pieces,
-//! compiled to WebAssembly for the browser viewer in `web/`.
+//! The `.qm` decoder for the browser and Node (WebAssembly, wasm-bindgen).
 //!
-//! [`Incremental`] is a thin layer over [`qm_codec::Decoder`]: bytes are pushed
-//! as they arrive, the header and base mesh are parsed once as soon as they
-//! are complete, and [`Incremental::refine`] decodes the longest prefix
-//! received so far into a value buffer that is reused from one refinement to
-//! the next. The index buffers (which samples exist at a level, the
-//! triangles between them) depend only on the layout and are built once per
-//! level. The decoding is the native decoder's own code.
-//!
-//! [`QmDecoder`] wraps it for JavaScript with `wasm-bindgen`.
+//! [`Buffers`] is a thin layer over [`qm_codec::StreamDecoder`], the
+//! library's one incremental decoder: it keeps the last refinement's
+//! vertex buffers as JavaScript wants them (`f32` positions, area-weighted
+//! unit normals, `u32` triangle indices) and reuses them from one
+//! refinement to the next. [`QmDecoder`] exposes it with `wasm-bindgen`;
+//! its errors are JavaScript `Error`s with a `code` property
+//! ([`error_code`]). No decoding happens here that the native decoder does
+//! not do in the same code.
 
-use qm_codec::{DecodeStatus, Decoder, Limits};
+use qm_codec::{DecodeOptions, Error, LevelChoice, Limits, StreamDecoder};
 use wasm_bindgen::prelude::*;
-
-/// The index buffers of one subdivision level, derived from the layout only.
-#[derive(Clone, Debug)]
-struct LevelIndex {
-    /// Sample ids present at the level, in the order of the vertex buffers.
-    samples: Vec<u32>,
-    /// Triangles as indices into `samples`, two per quad, counter-clockwise.
-    triangles: Vec<u32>,
-}
-
-impl LevelIndex {
-    fn new(layout: &qm_codec::qm_lift::Layout, level: u32) -> Self {
-        let samples = layout.samples_at(level);
-        let mut local = vec![u32::MAX; layout.sample_count()];
-        for (i, &s) in samples.iter().enumerate() {
-            local[s as usize] = i as u32;
-        }
-        let mut triangles = Vec::new();
-        for q in layout.quads(level) {
-            let [a, b, c, d] = q.map(|s| local[s as usize]);
-            triangles.extend_from_slice(&[a, b, c, a, c, d]);
-        }
-        LevelIndex { samples, triangles }
-    }
-}
-
-/// The buffers of one refinement (see [`Incremental::mesh`]).
-#[derive(Clone, Copy, Debug)]
-pub struct MeshView<'a> {
-    /// `x, y, z` per vertex.
-    pub positions: &'a [f32],
-    /// Unit normal per vertex.
-    pub normals: &'a [f32],
-    /// Three vertex indices per triangle, counter-clockwise.
-    pub triangles: &'a [u32],
-    /// The level shown.
-    pub level: u32,
-    /// Passes decoded completely.
-    pub passes: u32,
-    /// Whether the bytes ended before all passes.
-    pub truncated: bool,
-}
-
-/// An incremental decoder: push bytes, then ask for the mesh they describe.
-#[derive(Clone, Debug)]
-pub struct Incremental {
-    bytes: Vec<u8>,
-    limits: Limits,
-    decoder: Option<Decoder>,
-    levels: Vec<Option<LevelIndex>>,
-    values: Vec<[i32; 3]>,
-    /// Bytes and level of the last refinement (to skip redundant work).
-    decoded: Option<(usize, u32)>,
-    status: Option<DecodeStatus>,
-    positions: Vec<f32>,
-    normals: Vec<f32>,
-    refinements: u32,
-}
-
-impl Default for Incremental {
-    fn default() -> Self {
-        Self::new()
-    }
-}
 
 /// The browser decoder's memory limit: 512 MiB, an eighth of the largest
 /// WebAssembly heap, so that a hostile file cannot crash the tab.
 pub const WASM_MAX_MEMORY: u64 = 512 << 20;
 
-impl Incremental {
-    /// An empty decoder with the default limits, memory capped at
-    /// [`WASM_MAX_MEMORY`].
-    pub fn new() -> Self {
-        Self::with_limits(Limits::DEFAULT.with_max_memory(WASM_MAX_MEMORY))
-    }
+/// A [`StreamDecoder`] and the buffers of its last refinement.
+#[derive(Clone, Debug)]
+pub struct Buffers {
+    decoder: StreamDecoder,
+    positions: Vec<f32>,
+    normals: Vec<f32>,
+}
 
-    /// An empty decoder with the given limits.
-    pub fn with_limits(limits: Limits) -> Self {
-        Incremental {
-            bytes: Vec::new(),
-            limits,
-            decoder: None,
-            levels: Vec::new(),
-            values: Vec::new(),
-            decoded: None,
-            status: None,
+impl Default for Buffers {
+    fn default() -> Self {
+        Self::new(DecodeOptions::default().with_limits(wasm_limits(0)))
+    }
+}
+
+/// The default limits with memory capped at `max_memory` bytes (0:
+/// [`WASM_MAX_MEMORY`]).
+pub fn wasm_limits(max_memory: u64) -> Limits {
+    let memory = if max_memory == 0 {
+        WASM_MAX_MEMORY
+    } else {
+        max_memory
+    };
+    Limits::DEFAULT.with_max_memory(memory)
+}
+
+impl Buffers {
+    /// An empty decoder with these options.
+    pub fn new(options: DecodeOptions) -> Self {
+        Buffers {
+            decoder: StreamDecoder::new(options),
             positions: Vec::new(),
             normals: Vec::new(),
-            refinements: 0,
         }
     }
 
-    /// Appends the next bytes of the file. Returns whether the header and
-    /// base mesh are complete (so that [`Self::refine`] can show a mesh).
-    /// A file that is not `.qm`, is corrupt or exceeds the limits is an
-    /// error as soon as enough bytes arrived to tell.
-    pub fn push(&mut self, chunk: &[u8]) -> qm_codec::Result<bool> {
-        self.bytes.extend_from_slice(chunk);
-        if self.decoder.is_none() {
-            match Decoder::new(&self.bytes, &self.limits) {
-                Ok(decoder) => {
-                    self.levels = vec![None; decoder.layout().level() as usize + 1];
-                    self.decoder = Some(decoder);
-                }
-                Err(e) if e.is_truncated() => return Ok(false),
-                Err(e) => return Err(e),
-            }
-        }
-        Ok(true)
+    /// The decoder.
+    pub fn decoder(&self) -> &StreamDecoder {
+        &self.decoder
     }
 
-    /// Whether the header and base mesh have arrived.
-    pub fn ready(&self) -> bool {
-        self.decoder.is_some()
+    /// The decoder, to push bytes or change options.
+    pub fn decoder_mut(&mut self) -> &mut StreamDecoder {
+        &mut self.decoder
     }
 
-    /// The parsed decoder, once [`Self::ready`].
-    pub fn decoder(&self) -> Option<&Decoder> {
-        self.decoder.as_ref()
-    }
-
-    /// Bytes pushed so far.
-    pub fn bytes_received(&self) -> usize {
-        self.bytes.len()
-    }
-
-    /// The bytes pushed so far.
-    pub fn bytes(&self) -> &[u8] {
-        &self.bytes
-    }
-
-    /// The finest subdivision level of the file (0 before the header).
-    pub fn finest_level(&self) -> u32 {
-        self.decoder.as_ref().map_or(0, |d| d.layout().level())
-    }
-
-    /// Vertices of the mesh at `level` (at most the finest; 0 before the
-    /// base mesh is complete). Builds that level's index buffers once.
-    pub fn vertices_at(&mut self, level: u32) -> usize {
-        let Some(decoder) = &self.decoder else {
-            return 0;
-        };
-        let level = level.min(decoder.layout().level());
-        self.levels[level as usize]
-            .get_or_insert_with(|| LevelIndex::new(decoder.layout(), level))
-            .samples
-            .len()
-    }
-
-    /// Decodes everything received so far at `level` (default and at most
-    /// the finest) into the vertex buffers. Returns `Ok(false)` when nothing
-    /// changed since the last refinement (no new bytes, same level) and
-    /// nothing was done, and `Ok(true)` when the buffers were rebuilt; an
-    /// error only before the base mesh is complete.
-    pub fn refine(&mut self, level: Option<u32>) -> qm_codec::Result<bool> {
-        let Some(decoder) = &self.decoder else {
-            return Err(qm_codec::Error::Truncated {
-                needed: self.bytes.len() + 1,
-                available: self.bytes.len(),
-            });
-        };
-        let level = level.map_or(decoder.layout().level(), |l| {
-            l.min(decoder.layout().level())
-        });
-        if self.decoded == Some((self.bytes.len(), level)) {
+    /// [`StreamDecoder::refine`], then the vertex buffers of the new mesh.
+    pub fn refine(&mut self) -> qm_codec::Result<bool> {
+        if !self.decoder.refine()? {
             return Ok(false);
         }
-        let status = decoder.decode_into(
-            &self.bytes[decoder.stream_start()..],
-            None,
-            Some(level),
-            &mut self.values,
-        );
-        let index = self.levels[level as usize]
-            .get_or_insert_with(|| LevelIndex::new(decoder.layout(), level));
-        let quantizer = decoder.quantizer();
-        self.positions.clear();
-        for &s in &index.samples {
-            let p = quantizer.dequantize(self.values[s as usize].map(f64::from));
-            self.positions
-                .extend_from_slice(&[p.x as f32, p.y as f32, p.z as f32]);
-        }
-        vertex_normals(&self.positions, &index.triangles, &mut self.normals);
-        self.decoded = Some((self.bytes.len(), level));
-        self.status = Some(status);
-        self.refinements += 1;
+        let mesh = self.decoder.mesh().expect("just refined");
+        mesh.positions_f32(&mut self.positions);
+        vertex_normals(&self.positions, mesh.triangles(), &mut self.normals);
         Ok(true)
-    }
-
-    /// The mesh of everything received so far at `level` (default: the
-    /// finest): [`Self::refine`], then a view of the buffers.
-    pub fn mesh(&mut self, level: Option<u32>) -> qm_codec::Result<MeshView<'_>> {
-        self.refine(level)?;
-        let status = self.status.expect("set by refine");
-        Ok(MeshView {
-            positions: &self.positions,
-            normals: &self.normals,
-            triangles: self.current_index().map_or(&[], |i| &i.triangles),
-            level: status.level,
-            passes: status.passes,
-            truncated: status.truncated,
-        })
-    }
-
-    /// What the last refinement achieved.
-    pub fn status(&self) -> Option<DecodeStatus> {
-        self.status
-    }
-
-    /// How many refinements actually decoded (skipped ones do not count).
-    pub fn refinements(&self) -> u32 {
-        self.refinements
     }
 
     /// Vertex positions of the last refinement, `x, y, z` per vertex.
@@ -237,36 +82,38 @@ impl Incremental {
         &self.normals
     }
 
-    /// Triangle corner indices of the last refinement's level.
+    /// Triangle corner indices of the last refinement.
     pub fn triangles(&self) -> &[u32] {
-        self.current_index().map_or(&[], |i| &i.triangles)
+        self.decoder.mesh().map_or(&[], |m| m.triangles())
     }
 
-    /// Sample ids of the vertices of the last refinement, in buffer order.
-    pub fn samples(&self) -> &[u32] {
-        self.current_index().map_or(&[], |i| &i.samples)
-    }
-
-    /// Vertices of the last refinement.
-    pub fn vertex_count(&self) -> usize {
-        self.positions.len() / 3
-    }
-
-    /// Quantized values of the last refinement's vertices, in buffer order.
-    pub fn quantized(&self) -> impl Iterator<Item = [i32; 3]> + '_ {
-        self.samples().iter().map(|&s| self.values[s as usize])
-    }
-
-    /// A checksum of the last refinement: its vertices' quantized values in
-    /// buffer order and its triangles (see [`mesh_checksum`]).
+    /// [`mesh_checksum`] of the last refinement.
     pub fn checksum(&self) -> u64 {
-        mesh_checksum(self.quantized(), self.triangles())
+        self.decoder
+            .mesh()
+            .map_or(0, |m| mesh_checksum(m.quantized(), m.triangles()))
     }
+}
 
-    fn current_index(&self) -> Option<&LevelIndex> {
-        let (_, level) = self.decoded?;
-        self.levels[level as usize].as_ref()
+/// The `code` of a decoder error as JavaScript sees it: `not-qm`,
+/// `unsupported-version`, `truncated`, `corrupt`, `limit` or `memory`.
+pub fn error_code(e: &Error) -> &'static str {
+    match e {
+        Error::NotQm => "not-qm",
+        Error::UnsupportedVersion { .. } => "unsupported-version",
+        Error::Truncated { .. } => "truncated",
+        Error::Limit { .. } => "limit",
+        Error::Memory { .. } => "memory",
+        _ => "corrupt",
     }
+}
+
+/// A JavaScript `Error` with the message and [`error_code`] of `e`.
+fn js_error(e: &Error) -> JsValue {
+    let value: JsValue = JsError::new(&e.to_string()).into();
+    // Setting a property on a fresh Error object cannot fail.
+    let _ = js_sys::Reflect::set(&value, &"code".into(), &error_code(e).into());
+    value
 }
 
 /// FNV-1a (64 bit) over the little-endian bytes of the vertex count, the
@@ -352,64 +199,128 @@ fn vertex_normals(positions: &[f32], triangles: &[u32], out: &mut Vec<f32>) {
 /// The incremental decoder for JavaScript.
 #[wasm_bindgen]
 pub struct QmDecoder {
-    inner: Incremental,
-}
-
-impl Default for QmDecoder {
-    fn default() -> Self {
-        Self::new()
-    }
+    inner: Buffers,
 }
 
 #[wasm_bindgen]
 impl QmDecoder {
-    /// An empty decoder.
+    /// An empty decoder whose file may take at most `max_memory` bytes
+    /// (0: 512 MiB); it outputs the level the bytes support.
     #[wasm_bindgen(constructor)]
-    pub fn new() -> QmDecoder {
+    pub fn new(max_memory: f64) -> QmDecoder {
+        let limits = wasm_limits(if max_memory > 0.0 {
+            max_memory as u64
+        } else {
+            0
+        });
         QmDecoder {
-            inner: Incremental::new(),
+            inner: Buffers::new(DecodeOptions::default().with_limits(limits)),
         }
     }
 
-    /// Appends bytes; true once the base mesh is complete. Throws on a file
-    /// that is not `.qm`, is corrupt or too large.
-    pub fn push(&mut self, chunk: &[u8]) -> Result<bool, JsError> {
-        self.inner
-            .push(chunk)
-            .map_err(|e| JsError::new(&e.to_string()))
+    fn set(&mut self, change: impl FnOnce(DecodeOptions) -> DecodeOptions) {
+        let options = change(*self.inner.decoder().options());
+        self.inner.decoder_mut().set_options(options);
     }
 
-    /// Decodes the bytes so far at `level` (negative: the finest); false when
-    /// nothing changed. Throws before the base mesh is complete.
-    pub fn refine(&mut self, level: i32) -> Result<bool, JsError> {
-        let level = u32::try_from(level).ok();
+    /// The level to output: -1 the level the bytes support (the default),
+    /// -2 the finest, 0 or more that level.
+    #[wasm_bindgen(js_name = setLevel)]
+    pub fn set_level(&mut self, level: i32) {
+        let choice = match level {
+            -2 => LevelChoice::Finest,
+            l if l < 0 => LevelChoice::Auto,
+            l => LevelChoice::Fixed(l as u32),
+        };
+        self.set(|o| o.with_level(choice));
+    }
+
+    /// Use no more of the stream than reaches this estimated RMS error,
+    /// in model units (0 or less: no goal).
+    #[wasm_bindgen(js_name = setMaxError)]
+    pub fn set_max_error(&mut self, rms: f64) {
+        self.set(|o| o.with_max_error((rms > 0.0).then_some(rms)));
+    }
+
+    /// Output no level with more triangles than this (0: no cap).
+    #[wasm_bindgen(js_name = setMaxTriangles)]
+    pub fn set_max_triangles(&mut self, triangles: f64) {
+        self.set(|o| o.with_max_triangles((triangles >= 1.0).then_some(triangles as u64)));
+    }
+
+    /// How much worse, in dB, the automatic level may be than the finest.
+    #[wasm_bindgen(js_name = setTolerance)]
+    pub fn set_tolerance(&mut self, db: f64) {
+        self.set(|o| o.with_tolerance_db(db.max(0.0)));
+    }
+
+    /// Keep no more than this many bytes of the file (0: no budget).
+    #[wasm_bindgen(js_name = setMaxBytes)]
+    pub fn set_max_bytes(&mut self, bytes: f64) {
+        self.set(|o| o.with_max_bytes((bytes >= 1.0).then_some(bytes as usize)));
+    }
+
+    /// Appends bytes; true once the base mesh is complete. Throws on a file
+    /// that is not `.qm`, is corrupt or asks for too much.
+    pub fn push(&mut self, chunk: &[u8]) -> Result<bool, JsValue> {
         self.inner
-            .refine(level)
-            .map_err(|e| JsError::new(&e.to_string()))
+            .decoder_mut()
+            .push(chunk)
+            .map_err(|e| js_error(&e))
+    }
+
+    /// Decodes the bytes so far with the settings; false when nothing
+    /// changed. Throws before the base mesh is complete.
+    pub fn refine(&mut self) -> Result<bool, JsValue> {
+        self.inner.refine().map_err(|e| js_error(&e))
     }
 
     /// Whether the base mesh is complete.
+    #[wasm_bindgen(getter)]
     pub fn ready(&self) -> bool {
-        self.inner.ready()
+        self.inner.decoder().ready()
     }
 
-    /// Bytes pushed so far.
+    /// Before the base mesh is complete: the least total bytes it needs,
+    /// as far as known (0 once ready).
+    #[wasm_bindgen(getter, js_name = bytesNeeded)]
+    pub fn bytes_needed(&self) -> usize {
+        self.inner.decoder().bytes_needed()
+    }
+
+    /// Whether more bytes could still change the mesh (false once the
+    /// goal is met or the stream is complete).
+    #[wasm_bindgen(getter, js_name = wantsMore)]
+    pub fn wants_more(&self) -> bool {
+        self.inner.decoder().wants_more()
+    }
+
+    /// Bytes kept so far.
     #[wasm_bindgen(getter, js_name = bytesReceived)]
     pub fn bytes_received(&self) -> usize {
-        self.inner.bytes_received()
+        self.inner.decoder().bytes_received()
+    }
+
+    /// Bytes of the file the last mesh used.
+    #[wasm_bindgen(getter, js_name = bytesUsed)]
+    pub fn bytes_used(&self) -> usize {
+        self.inner.decoder().mesh().map_or(0, |m| m.bytes_used())
     }
 
     /// Offset of the embedded stream (header plus base section), 0 before
     /// the base mesh is complete.
     #[wasm_bindgen(getter, js_name = streamStart)]
     pub fn stream_start(&self) -> usize {
-        self.inner.decoder().map_or(0, Decoder::stream_start)
+        self.inner
+            .decoder()
+            .decoder()
+            .map_or(0, qm_codec::Decoder::stream_start)
     }
 
     /// Finest subdivision level of the file.
     #[wasm_bindgen(getter, js_name = finestLevel)]
     pub fn finest_level(&self) -> u32 {
-        self.inner.finest_level()
+        self.inner.decoder().finest_level()
     }
 
     /// Bit-plane passes in the complete file.
@@ -417,37 +328,60 @@ impl QmDecoder {
     pub fn total_passes(&self) -> u32 {
         self.inner
             .decoder()
+            .decoder()
             .map_or(0, |d| u32::from(d.header().passes))
     }
 
     /// Passes decoded completely by the last refinement.
     #[wasm_bindgen(getter)]
     pub fn passes(&self) -> u32 {
-        self.inner.status().map_or(0, |s| s.passes)
+        self.inner.decoder().mesh().map_or(0, |m| m.passes())
     }
 
-    /// Level shown by the last refinement.
+    /// Level of the last refinement.
     #[wasm_bindgen(getter)]
     pub fn level(&self) -> u32 {
-        self.inner.status().map_or(0, |s| s.level)
+        self.inner.decoder().mesh().map_or(0, |m| m.level())
     }
 
-    /// Whether the last refinement's stream ended before all passes.
+    /// Whether the last refinement's bytes ended inside a pass.
     #[wasm_bindgen(getter)]
     pub fn truncated(&self) -> bool {
-        self.inner.status().is_none_or(|s| s.truncated)
+        self.inner.decoder().mesh().is_none_or(|m| m.truncated())
+    }
+
+    /// Estimated RMS distance of the last mesh from the complete stream's
+    /// finest mesh, in model units.
+    #[wasm_bindgen(getter, js_name = errorEstimate)]
+    pub fn error_estimate(&self) -> f64 {
+        self.inner.decoder().mesh().map_or(f64::NAN, |m| m.error())
+    }
+
+    /// The same as PSNR in dB against the bounding-box diagonal.
+    #[wasm_bindgen(getter, js_name = psnrEstimate)]
+    pub fn psnr_estimate(&self) -> f64 {
+        self.inner
+            .decoder()
+            .mesh()
+            .map_or(f64::NAN, |m| m.psnr_db())
     }
 
     /// Vertices of the last refinement.
     #[wasm_bindgen(getter, js_name = vertexCount)]
     pub fn vertex_count(&self) -> usize {
-        self.inner.vertex_count()
+        self.inner.positions().len() / 3
     }
 
     /// Vertices of the mesh at `level` (0 before the base mesh).
     #[wasm_bindgen(js_name = vertexCountAt)]
     pub fn vertex_count_at(&mut self, level: u32) -> usize {
-        self.inner.vertices_at(level)
+        self.inner.decoder_mut().vertices_at(level)
+    }
+
+    /// Triangles of the mesh at `level` (0 before the base mesh).
+    #[wasm_bindgen(js_name = triangleCountAt)]
+    pub fn triangle_count_at(&self, level: u32) -> f64 {
+        self.inner.decoder().triangles_at(level) as f64
     }
 
     /// Triangles of the last refinement.
@@ -459,7 +393,7 @@ impl QmDecoder {
     /// Refinements that decoded.
     #[wasm_bindgen(getter)]
     pub fn refinements(&self) -> u32 {
-        self.inner.refinements()
+        self.inner.decoder().refinements()
     }
 
     /// Positions of the last refinement (a copy), `x, y, z` per vertex.
@@ -487,10 +421,10 @@ impl QmDecoder {
 mod tests {
     use super::*;
     use qm_codec::qm_lift::synthetic::bumpy_sphere;
-    use qm_codec::{DecodeOptions, EncodeOptions, compress, decompress};
+    use qm_codec::{Decoder, EncodeOptions, compress, decompress};
 
     /// What the one-shot native decoder makes of the first `n` bytes.
-    fn native(bytes: &[u8], n: usize, level: Option<u32>) -> (u64, usize, u32) {
+    fn native(bytes: &[u8], n: usize, level: LevelChoice) -> (u64, usize, u32, u32) {
         let d = decompress(
             bytes,
             &DecodeOptions::default()
@@ -499,7 +433,7 @@ mod tests {
         )
         .unwrap();
         let (checksum, vertices, _) = decompressed_checksum(&d);
-        (checksum, vertices, d.passes)
+        (checksum, vertices, d.passes, d.level)
     }
 
     fn sphere_file() -> Vec<u8> {
@@ -508,45 +442,55 @@ mod tests {
             .bytes
     }
 
+    fn buffers() -> Buffers {
+        Buffers::default()
+    }
+
     #[test]
     fn chunked_pushes_match_the_native_decoder_at_every_prefix() {
         let bytes = sphere_file();
-        let mut inc = Incremental::new();
-        let mut shown = 0;
-        let mut last_passes = 0;
-        for chunk in bytes.chunks(97) {
-            let ready = inc.push(chunk).unwrap();
-            assert_eq!(
-                ready,
-                inc.bytes_received() >= {
-                    let d = Decoder::new(&bytes, &Limits::DEFAULT).unwrap();
-                    d.stream_start()
+        let start = Decoder::new(&bytes, &Limits::DEFAULT)
+            .unwrap()
+            .stream_start();
+        for choice in [
+            LevelChoice::Auto,
+            LevelChoice::Finest,
+            LevelChoice::Fixed(2),
+        ] {
+            let mut inc = Buffers::new(DecodeOptions::default().with_level(choice));
+            let mut shown = 0;
+            let mut last_passes = 0;
+            for chunk in bytes.chunks(97) {
+                let ready = inc.decoder_mut().push(chunk).unwrap();
+                let received = inc.decoder().bytes_received();
+                assert_eq!(ready, received >= start);
+                if !ready {
+                    assert!(inc.refine().unwrap_err().is_truncated());
+                    continue;
                 }
-            );
-            if !ready {
-                assert!(inc.refine(None).unwrap_err().is_truncated());
-                continue;
+                assert!(inc.refine().unwrap());
+                let (sum, vertices, passes, level) = native(&bytes, received, choice);
+                let mesh = inc.decoder().mesh().unwrap();
+                assert_eq!(inc.checksum(), sum, "{choice:?} at {received} bytes");
+                assert_eq!(mesh.vertex_count(), vertices);
+                assert_eq!((mesh.passes(), mesh.level()), (passes, level));
+                assert!(passes >= last_passes);
+                last_passes = passes;
+                assert_eq!(inc.normals().len(), inc.positions().len());
+                shown += 1;
             }
-            assert!(inc.refine(None).unwrap());
-            let (sum, vertices, passes) = native(&bytes, inc.bytes_received(), None);
-            assert_eq!(inc.checksum(), sum, "at {} bytes", inc.bytes_received());
-            assert_eq!(inc.vertex_count(), vertices);
-            assert_eq!(inc.status().unwrap().passes, passes);
-            assert!(passes >= last_passes);
-            last_passes = passes;
-            assert_eq!(inc.normals().len(), inc.positions().len());
-            shown += 1;
-        }
-        assert!(shown > 3);
-        let status = inc.status().unwrap();
-        assert!(!status.truncated);
-        let full = decompress(&bytes, &DecodeOptions::default()).unwrap();
-        assert_eq!(status.passes, full.passes);
-        // The final positions are the native decoder's, rounded to f32.
-        let (positions, _) = full.level_mesh();
-        assert_eq!(positions.len(), inc.vertex_count());
-        for (p, q) in positions.iter().zip(inc.positions().chunks_exact(3)) {
-            assert_eq!([p.x as f32, p.y as f32, p.z as f32], [q[0], q[1], q[2]]);
+            assert!(shown > 3);
+            let mesh = inc.decoder().mesh().unwrap();
+            assert!(!mesh.truncated());
+            assert!(!inc.decoder().wants_more());
+            let full = decompress(&bytes, &DecodeOptions::default().with_level(choice)).unwrap();
+            assert_eq!(mesh.passes(), full.passes);
+            // The final positions are the native decoder's, rounded to f32.
+            let (positions, _) = full.level_mesh();
+            assert_eq!(positions.len(), mesh.vertex_count());
+            for (p, q) in positions.iter().zip(inc.positions().chunks_exact(3)) {
+                assert_eq!([p.x as f32, p.y as f32, p.z as f32], [q[0], q[1], q[2]]);
+            }
         }
     }
 
@@ -560,70 +504,87 @@ mod tests {
         let decoder = Decoder::new(&bytes, &Limits::DEFAULT).unwrap();
         assert!(decoder.header().implied());
         assert!(decoder.stream_start() + 4 < bytes.len());
-        let mut inc = Incremental::new();
+        let mut inc = buffers();
         for chunk in bytes.chunks(5) {
-            if inc.push(chunk).unwrap() {
-                assert!(inc.refine(None).unwrap());
-                let (sum, vertices, _) = native(&bytes, inc.bytes_received(), None);
-                assert_eq!(inc.checksum(), sum, "at {} bytes", inc.bytes_received());
-                assert_eq!(inc.vertex_count(), vertices);
+            if inc.decoder_mut().push(chunk).unwrap() {
+                assert!(inc.refine().unwrap());
+                let n = inc.decoder().bytes_received();
+                let (sum, vertices, _, _) = native(&bytes, n, LevelChoice::Auto);
+                assert_eq!(inc.checksum(), sum, "at {n} bytes");
+                assert_eq!(inc.positions().len(), 3 * vertices);
             }
         }
-        assert!(!inc.status().unwrap().truncated);
+        assert!(!inc.decoder().mesh().unwrap().truncated());
     }
 
     #[test]
     fn refinement_is_skipped_without_new_bytes_and_levels_switch() {
         let bytes = sphere_file();
-        let mut inc = Incremental::new();
-        inc.push(&bytes[..bytes.len() / 2]).unwrap();
-        assert!(inc.refine(None).unwrap());
-        assert!(!inc.refine(None).unwrap());
-        assert_eq!(inc.refinements(), 1);
-        let finest = inc.finest_level();
+        let half = bytes.len() / 2;
+        let mut inc = buffers();
+        inc.decoder_mut().push(&bytes[..half]).unwrap();
+        assert!(inc.refine().unwrap());
+        assert!(!inc.refine().unwrap());
+        assert_eq!(inc.decoder().refinements(), 1);
+        let finest = inc.decoder().finest_level();
         for level in 0..=finest {
-            assert!(inc.refine(Some(level)).unwrap());
-            let (sum, vertices, _) = native(&bytes, bytes.len() / 2, Some(level));
+            let options = inc
+                .decoder()
+                .options()
+                .with_level(LevelChoice::Fixed(level));
+            inc.decoder_mut().set_options(options);
+            assert!(inc.refine().unwrap());
+            let (sum, vertices, _, _) = native(&bytes, half, LevelChoice::Fixed(level));
             assert_eq!(inc.checksum(), sum, "level {level}");
-            assert_eq!(inc.vertex_count(), vertices);
-            assert_eq!(inc.status().unwrap().level, level);
+            assert_eq!(inc.positions().len(), 3 * vertices);
+            assert_eq!(inc.decoder().mesh().unwrap().level(), level);
             assert_eq!(inc.triangles().len(), 3 * 6 * 2 * 4usize.pow(level));
         }
-        assert_eq!(inc.vertices_at(0), 8);
-        assert_eq!(inc.vertices_at(finest + 1), inc.vertices_at(finest));
-        // Beyond the finest level is the finest level.
-        assert!(!inc.refine(Some(finest + 5)).unwrap());
-        inc.push(&bytes[bytes.len() / 2..]).unwrap();
-        let mesh = inc.mesh(Some(finest)).unwrap();
-        assert!(!mesh.truncated);
-        assert_eq!(mesh.level, finest);
-        assert_eq!(mesh.positions.len(), mesh.normals.len());
-        assert_eq!(mesh.triangles.len(), 3 * 6 * 2 * 4usize.pow(finest));
-        assert_eq!(inc.checksum(), native(&bytes, bytes.len(), None).0);
+        assert_eq!(inc.decoder_mut().vertices_at(0), 8);
+        let at_finest = inc.decoder_mut().vertices_at(finest);
+        assert_eq!(inc.decoder_mut().vertices_at(finest + 1), at_finest);
+        inc.decoder_mut().push(&bytes[half..]).unwrap();
+        assert!(inc.refine().unwrap());
+        assert_eq!(
+            inc.checksum(),
+            native(&bytes, bytes.len(), LevelChoice::Finest).0
+        );
     }
 
     #[test]
-    fn bad_files_fail_early() {
-        let mut inc = Incremental::new();
-        assert!(!inc.push(b"\x89Q").unwrap());
-        assert!(inc.push(b"X-not-a-qm-file-at-all").is_err());
+    fn bad_files_fail_early_with_codes() {
+        let mut inc = buffers();
+        assert!(!inc.decoder_mut().push(b"\x89Q").unwrap());
+        let e = inc
+            .decoder_mut()
+            .push(b"X-not-a-qm-file-at-all")
+            .unwrap_err();
+        assert_eq!(error_code(&e), "not-qm");
         let mut bytes = sphere_file();
         let start = Decoder::new(&bytes, &Limits::DEFAULT)
             .unwrap()
             .stream_start();
+        let mut inc = buffers();
+        assert!(!inc.decoder_mut().push(&bytes[..20]).unwrap());
+        assert!(inc.decoder().bytes_needed() > 20);
+        assert_eq!(error_code(&inc.refine().unwrap_err()), "truncated");
         bytes[start - 6] ^= 0x55; // inside the base section: its CRC fails
-        let mut inc = Incremental::new();
-        assert!(inc.push(&bytes[..start]).is_err());
+        let mut inc = buffers();
+        let e = inc.decoder_mut().push(&bytes[..start]).unwrap_err();
+        assert_eq!(error_code(&e), "corrupt");
+        let tiny = Buffers::new(DecodeOptions::default().with_limits(wasm_limits(1000)));
+        let e = { tiny }.decoder_mut().push(&sphere_file()).unwrap_err();
+        assert_eq!(error_code(&e), "memory");
     }
 
     #[test]
     fn normals_are_unit_and_point_outwards_on_a_sphere() {
         let bytes = sphere_file();
-        let mut inc = Incremental::new();
-        inc.push(&bytes).unwrap();
-        inc.refine(None).unwrap();
+        let mut inc = buffers();
+        inc.decoder_mut().push(&bytes).unwrap();
+        inc.refine().unwrap();
         let p = inc.positions();
-        let n = inc.vertex_count() as f32;
+        let n = (p.len() / 3) as f32;
         let centre: Vec<f32> = (0..3)
             .map(|d| p.iter().skip(d).step_by(3).sum::<f32>() / n)
             .collect();

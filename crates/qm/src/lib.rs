@@ -25,7 +25,7 @@
 //! | [`tree`] | `qm-tree` | zerotrees over edge and face coefficients |
 //! | [`ezw`] | `qm-ezw` | bit-plane zerotree coding, the arithmetic coder |
 //! | [`param`] | `qm-param` | input mesh to semi-regular mesh; surface distance |
-//! | [`codec`] | `qm-codec` | the `.qm` container, compress/decompress of a semi-regular mesh, the incremental [`Decoder`] |
+//! | [`codec`] | `qm-codec` | the `.qm` container, compress/decompress of a semi-regular mesh, the incremental [`StreamDecoder`] and the level choice |
 
 #[cfg(doctest)]
 #[doc = include_str!("../../../README.md")]
@@ -44,8 +44,8 @@ pub use qm_param as param;
 pub use qm_tree as tree;
 
 pub use qm_codec::{
-    Contexts, DecodeOptions, DecodeStatus, Decoder, Decompressed, EncodeOptions, Frames, Limits,
-    UpdateRule, Weighting,
+    Contexts, DecodeOptions, DecodeStatus, Decoder, Decompressed, EncodeOptions, Estimate, Frames,
+    LevelChoice, LevelMesh, Limits, StreamDecoder, UpdateRule, Weighting,
 };
 pub use qm_io::PolyMesh;
 pub use qm_lift::SemiRegularMesh;
@@ -144,10 +144,27 @@ impl Decoded {
     pub fn truncated(&self) -> bool {
         self.raw.truncated
     }
+
+    /// The decoder's estimate of the RMS distance, in model units, of
+    /// [`Decoded::mesh`] from the complete stream's finest mesh
+    /// ([`codec::levels`]).
+    pub fn error_estimate(&self) -> f64 {
+        self.raw.estimate.error(self.raw.level)
+    }
+
+    /// [`Self::error_estimate`] as PSNR against the bounding-box diagonal,
+    /// in dB.
+    pub fn psnr_estimate(&self) -> f64 {
+        self.raw.estimate.psnr_db(self.raw.level)
+    }
 }
 
 /// Decompresses `.qm` bytes; any cut after the base mesh is fine (a cut
-/// inside the header or the base mesh is [`Error::is_truncated`]).
+/// inside the header or the base mesh is [`Error::is_truncated`]). By
+/// default the mesh is at the level the bytes support
+/// ([`LevelChoice::Auto`]); [`DecodeOptions`] choose another level, an
+/// error goal or a triangle cap. For bytes that arrive in pieces, use a
+/// [`StreamDecoder`].
 pub fn decode(bytes: &[u8], options: &DecodeOptions) -> Result<Decoded> {
     let raw = qm_codec::decompress(bytes, options)?;
     let (positions, quads) = raw.level_mesh();

@@ -1,0 +1,561 @@
+//! The level a decoded prefix supports, by the decoder's own estimate of
+//! its error.
+//!
+//! A prefix of a `.qm` stream knows the coarse levels' details well and the
+//! finest levels' barely: decoding it at the finest level gives many
+//! vertices that add nothing. The decoder estimates two things from what it
+//! knows, both as RMS distances along the surface normal, in model units:
+//!
+//! - **What is still missing** ([`Estimate::remaining`]): how far the finest
+//!   level at this prefix is from the finest level of the complete stream.
+//!   After the passes down to weighted plane `P`, a level-`j` coordinate
+//!   whose weight is `s` bits (`bits_per_level (L - j)`, plus
+//!   `normal_bits` for the normal one) is known down to its bit `b = P - s`:
+//!   a significant one to within `t = 2^b` (uniform error, variance
+//!   `t^2 / 12`, the reconstruction being the centre of its interval), an
+//!   insignificant one only as below `t`. For the latter the mean square
+//!   is a measured law of the share of the level's coordinates that are
+//!   significant (few significant ones: the rest are small; see
+//!   [`BELOW_SCALE`]). A level-`j`
+//!   coefficient moves a patch of about `4^(L-j)` finest samples as a hat,
+//!   whose squared norm is `κ 4^(L-j)` with `κ = 4/9` (a bilinear hat on
+//!   the grid), so the mean squared distance over the finest samples is
+//!   `Σ κ 4^(L-j) w_c E[e^2] / N`, with `w_c` the share of the coordinate
+//!   that moves the surface: 1 for the normal component and 0 for the
+//!   tangential ones when the details are in local frames, a third each in
+//!   world axes. The base values' unknown low bits count the same way (a
+//!   base value is a hat over the whole base face around it). The estimate
+//!   counts what the stream has not delivered; a remesh's own distance to
+//!   the input it was made from is not in the stream and not in the
+//!   estimate.
+//! - **What a coarser level leaves out** ([`Estimate::gaps`]): the RMS
+//!   distance between the surface of level `l` and that of the finest level,
+//!   both at this prefix, measured on the decoded positions. Between two
+//!   consecutive levels it is the distance of level `j + 1`'s samples from
+//!   level `j`'s bilinear quads along the quads' normals (corners weighing
+//!   a quarter, edge points a half, centres one, as they are shared); the
+//!   bands of different levels are taken as orthogonal, so `gaps[l]^2` is the
+//!   sum over `j >= l`. Levels above the finest one with a significant
+//!   coefficient add no detail, only the subdivision's smoothing, which
+//!   shrinks fourfold per level: the first of them (and level 1 at least)
+//!   is measured, the rest extrapolated, so a short prefix is not lifted
+//!   to the finest level.
+//!
+//! A level's own error is then `sqrt(remaining^2 + gaps[l]^2)` (the known
+//! details and the unknown rest taken as uncorrelated), and
+//! [`LevelChoice::Auto`] takes the coarsest level within a tolerance
+//! ([`DEFAULT_TOLERANCE_DB`]) of the finest one's, that is with
+//! `gaps[l] <= remaining sqrt(10^(tol / 10) - 1)`; the complete stream
+//! decodes at the finest level.
+
+use qm_ezw::{Decoded, ZeroTree};
+use qm_lift::{Coord, Layout};
+
+use crate::container::Header;
+
+/// How a decoder chooses the level of the mesh it outputs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum LevelChoice {
+    /// The coarsest level whose estimated error is within the tolerance of
+    /// the finest level's at the same prefix (see the module docs); the
+    /// finest level once the stream is complete.
+    #[default]
+    Auto,
+    /// The finest level of the file, whatever the prefix.
+    Finest,
+    /// This level (the finest if the file has fewer).
+    Fixed(u32),
+}
+
+impl From<u32> for LevelChoice {
+    fn from(level: u32) -> Self {
+        LevelChoice::Fixed(level)
+    }
+}
+
+/// How much worse, in dB of estimated PSNR, [`LevelChoice::Auto`] lets the
+/// level it chooses be than the finest level at the same prefix.
+pub const DEFAULT_TOLERANCE_DB: f64 = 0.05;
+
+/// Share of a hat's squared norm per finest sample it covers: a bilinear
+/// hat of half-width `h` samples has `(2h/3)^2` summed over its grid.
+const KAPPA: f64 = 4.0 / 9.0;
+
+/// The decoder's estimate of the error of one decoded prefix (module docs).
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct Estimate {
+    /// RMS distance, in model units, from the finest level at this prefix
+    /// to the finest level of the complete stream.
+    pub remaining: f64,
+    /// `gaps[l]`: RMS distance between the surfaces of level `l` and of the
+    /// finest level, both at this prefix (`gaps[L]` is 0).
+    pub gaps: Vec<f64>,
+    /// Bounding-box diagonal of the decoded mesh, the PSNR's reference.
+    pub diagonal: f64,
+}
+
+impl Estimate {
+    /// The estimated RMS distance of level `level` at this prefix from the
+    /// complete stream's finest mesh.
+    pub fn error(&self, level: u32) -> f64 {
+        let gap = self.gaps.get(level as usize).copied().unwrap_or(0.0);
+        self.remaining.hypot(gap)
+    }
+
+    /// [`Self::error`] as PSNR, `20 log10(diagonal / error)` (infinite for
+    /// no error).
+    pub fn psnr_db(&self, level: u32) -> f64 {
+        psnr_db(self.diagonal, self.error(level))
+    }
+
+    /// The coarsest level whose error is within `tolerance_db` of the
+    /// finest level's.
+    pub fn coarsest_within(&self, tolerance_db: f64) -> u32 {
+        let finest = self.gaps.len().saturating_sub(1) as u32;
+        let ratio = (10f64.powf(tolerance_db.max(0.0) / 10.0) - 1.0).sqrt();
+        let allowed = self.remaining * ratio;
+        (0..=finest)
+            .find(|&l| self.gaps[l as usize] <= allowed)
+            .unwrap_or(finest)
+    }
+}
+
+/// `20 log10(diagonal / rms)`, infinite for `rms = 0`.
+pub fn psnr_db(diagonal: f64, rms: f64) -> f64 {
+    20.0 * (diagonal / rms).log10()
+}
+
+/// Sum of squared normal distances and their weight, to be divided.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct GapSum {
+    sum: f64,
+    weight: f64,
+}
+
+impl GapSum {
+    /// The RMS distance in quantized units.
+    fn rms(self) -> f64 {
+        if self.weight > 0.0 {
+            (self.sum / self.weight).sqrt()
+        } else {
+            0.0
+        }
+    }
+}
+
+/// The estimated RMS distance, in quantized units squared per finest
+/// sample, that the unknown parts of the coefficients and base values of
+/// `decoded` leave (see the module docs), times the quantization step.
+pub(crate) fn remaining(header: &Header, tree: &ZeroTree, decoded: &Decoded, base: u32) -> f64 {
+    let big_l = header.level as usize;
+    let plane = header.planes as i32 - decoded.passes as i32;
+    let weighting = header.stream_params().weighting;
+    let world = header.frames == 0;
+    // Per level and coordinate: significant coordinates, and the sum of
+    // their squares.
+    let mut significant = vec![[0u64; 3]; big_l + 1];
+    let mut squares = vec![[0f64; 3]; big_l + 1];
+    let levels = tree.levels();
+    for e in &decoded.nonzero {
+        let (l, c) = (levels[e.node as usize] as usize, e.coord as usize);
+        significant[l][c] += 1;
+        squares[l][c] += f64::from(e.value).powi(2);
+    }
+    // In a pass the stream ended in, the levels it finished are known one
+    // bit further; the others are taken as they were before it, so that the
+    // estimate does not rise while a pass brings new coordinates in.
+    let progress = &decoded.progress;
+    let mut sum = 0.0;
+    for c in 0..3 {
+        let weight = match (world, c) {
+            (true, _) => 1.0 / 3.0,
+            (false, 0) => 1.0,
+            (false, _) => continue,
+        };
+        // Mean square of the coarser level's coordinates, as estimated.
+        let mut coarser: Option<f64> = None;
+        for j in 1..=big_l {
+            let count = tree.level_range(j as u32).len() as f64;
+            let finished = decoded.truncated && j as u32 <= progress.levels;
+            let fresh = match progress.fresh.get(j - 1) {
+                Some(f) if decoded.truncated && !finished => u64::from(f[c]),
+                _ => 0,
+            };
+            let s = (significant[j][c] - fresh) as f64;
+            let shift = weighting.bits_per_level as i32 * (big_l - j) as i32
+                + if c == 0 {
+                    weighting.normal_bits as i32
+                } else {
+                    0
+                }
+                + i32::from(finished);
+            let b = plane - shift;
+            if b <= 0 || count == 0.0 {
+                coarser = Some(squares[j][c] / count.max(1.0));
+                continue;
+            }
+            let t = 2f64.powi(b);
+            let mut below = below_share(s, count) * t * t;
+            if s == 0.0
+                && let Some(m) = coarser
+            {
+                below = below.min(m / FINER_DECAY);
+            }
+            // Those new in the pass in progress are at the centre of
+            // `[t/2, t)`; they count as unknown.
+            let known = squares[j][c] - fresh as f64 * (0.75 * t).powi(2);
+            coarser = Some((known.max(0.0) + (count - s) * below) / count);
+            let energy = s * t * t / 12.0 + (count - s) * below;
+            sum += weight * KAPPA * 4f64.powi((big_l - j) as i32) * energy;
+        }
+    }
+    // Base values: their unknown low bits, uniform below the lowest known.
+    let k = header.stream_params().base_bits as i32;
+    let s0 = weighting.base_shift(header.level as u32) as i32;
+    let unknown = (plane - s0 - i32::from(decoded.truncated && progress.base)).clamp(0, k);
+    if unknown > 0 {
+        let t = 2f64.powi(unknown);
+        // Three world coordinates, a third of each along the normal.
+        sum += KAPPA * 4f64.powi(big_l as i32) * base as f64 * t * t / 12.0;
+    }
+    let samples = tree.len() + tree.base_vertices();
+    (sum / samples.max(1) as f64).sqrt() * header.step * CALIBRATION
+}
+
+/// The model's RMS came out 2 dB below the true distance in the median
+/// over 13 inputs (the development models, npm snowden and the dragon at
+/// resolution 3, the stress set's holes100, parts300, genus12 and
+/// heightfield; prefixes a factor 1.6 apart, below the remesh's own floor
+/// by 6 dB or more): it is scaled by `10^(2/20)`. What is left spreads
+/// over about ±3 dB (`docs/levels.md`).
+const CALIBRATION: f64 = 1.26;
+
+/// Mean square, in units of `t^2`, of the `count - significant`
+/// coordinates of a level still below their threshold `t`
+/// ([`BELOW_SCALE`]).
+fn below_share(significant: f64, count: f64) -> f64 {
+    let share = significant.max(NONE_SIGNIFICANT) / count;
+    BELOW_SCALE * share.powf(BELOW_POWER)
+}
+
+/// A level none of whose coordinates is significant yet is taken to hold
+/// at most a quarter of the coarser level's mean square per coordinate:
+/// details of a surface shrink from one level to the next (by four in
+/// energy on a smooth one; less on a noisy scan). Without it, the first
+/// cuts' estimates were up to 20 dB too pessimistic (igea's base alone),
+/// and the levels chosen there cost up to 2.9 dB.
+const FINER_DECAY: f64 = 4.0;
+
+/// Mean square of the coordinates still below their threshold `t`, in
+/// units of `t^2`, is `BELOW_SCALE * share^BELOW_POWER`, `share` being the
+/// part of the level's coordinates already significant: measured on the
+/// true coefficients of the development models' streams (the six models
+/// and two quad meshes, every level, cuts a factor 1.6 apart), the median
+/// of that mean square went from 0.003 at a share of `10^-4.5` to 0.1 at
+/// `10^-1` (`docs/levels.md`). A Laplacian law through the share
+/// overestimated it 3 to 6 times, and some hundred times where nothing
+/// was significant yet.
+const BELOW_SCALE: f64 = 0.28;
+
+/// See [`BELOW_SCALE`].
+const BELOW_POWER: f64 = 0.43;
+
+/// The count of significant coordinates a level with none is taken to
+/// have, for [`BELOW_SCALE`]'s share: the true mean squares of such levels
+/// spread from `10^-6` to `10^-2` of `t^2`, median `2 10^-4`.
+const NONE_SIGNIFICANT: f64 = 0.1;
+
+/// The values of the samples of level `level` (after synthesis to that
+/// level), face by face, each face's `(2^level + 1)^2` grid row by row.
+pub(crate) fn level_grid(layout: &Layout, level: u32, values: &[Coord], out: &mut Vec<Coord>) {
+    let n = layout.n();
+    let s = 1usize << (layout.level() - level);
+    out.clear();
+    for f in 0..layout.face_count() {
+        for j in (0..=n).step_by(s) {
+            for i in (0..=n).step_by(s) {
+                out.push(values[layout.sample(f, i, j) as usize]);
+            }
+        }
+    }
+}
+
+/// The normal distances of level `level + 1`'s samples (in `fine`, after
+/// synthesis to that level) from level `level`'s bilinear quads (`coarse`,
+/// a [`level_grid`]), in quantized units.
+pub(crate) fn step_gap(layout: &Layout, level: u32, coarse: &[Coord], fine: &[Coord]) -> GapSum {
+    let s = 1usize << (layout.level() - level);
+    let h = s / 2;
+    let m = 1usize << level;
+    let side = m + 1;
+    let at = |c: Coord| [c[0] as f64, c[1] as f64, c[2] as f64];
+    let mut total = GapSum::default();
+    // Corners, edge points and centres of a cell, with their shares.
+    const POINTS: [(usize, usize, f64); 9] = [
+        (0, 0, 0.25),
+        (2, 0, 0.25),
+        (2, 2, 0.25),
+        (0, 2, 0.25),
+        (1, 0, 0.5),
+        (2, 1, 0.5),
+        (1, 2, 0.5),
+        (0, 1, 0.5),
+        (1, 1, 1.0),
+    ];
+    for f in 0..layout.face_count() {
+        let grid = &coarse[f * side * side..][..side * side];
+        for b in 0..m {
+            for a in 0..m {
+                let c = [
+                    at(grid[b * side + a]),
+                    at(grid[b * side + a + 1]),
+                    at(grid[(b + 1) * side + a + 1]),
+                    at(grid[(b + 1) * side + a]),
+                ];
+                let d0 = sub(c[2], c[0]);
+                let d1 = sub(c[3], c[1]);
+                let normal = cross(d0, d1);
+                let len = dot(normal, normal).sqrt();
+                if len == 0.0 {
+                    continue;
+                }
+                let normal = normal.map(|x| x / len);
+                for (di, dj, w) in POINTS {
+                    let (u, v) = (di as f64 / 2.0, dj as f64 / 2.0);
+                    let flat: [f64; 3] = std::array::from_fn(|k| {
+                        c[0][k] * (1.0 - u) * (1.0 - v)
+                            + c[1][k] * u * (1.0 - v)
+                            + c[2][k] * u * v
+                            + c[3][k] * (1.0 - u) * v
+                    });
+                    let id = layout.sample(f, a * s + di * h, b * s + dj * h);
+                    let off = dot(sub(at(fine[id as usize]), flat), normal);
+                    total.sum += w * off * off;
+                    total.weight += w;
+                }
+            }
+        }
+    }
+    total
+}
+
+/// `gaps[l]` from the per-level steps `steps[j]` (level `j` against
+/// `j + 1`, in model units) measured for `j < measured`; the steps above
+/// are the last measured one shrinking fourfold per level.
+pub(crate) fn gaps_from_steps(steps: &[f64], finest: u32) -> Vec<f64> {
+    let mut all: Vec<f64> = steps.to_vec();
+    while all.len() < finest as usize {
+        let last = all.last().copied().unwrap_or(0.0);
+        all.push(last / 4.0);
+    }
+    let mut gaps = vec![0.0; finest as usize + 1];
+    let mut sum = 0.0;
+    for l in (0..finest as usize).rev() {
+        sum += all[l] * all[l];
+        gaps[l] = sum.sqrt();
+    }
+    gaps
+}
+
+/// Bounding-box diagonal of the given values, in model units.
+pub(crate) fn diagonal(values: impl Iterator<Item = Coord>, step: f64) -> f64 {
+    let mut lo = [i32::MAX; 3];
+    let mut hi = [i32::MIN; 3];
+    let mut any = false;
+    for v in values {
+        any = true;
+        for k in 0..3 {
+            lo[k] = lo[k].min(v[k]);
+            hi[k] = hi[k].max(v[k]);
+        }
+    }
+    if !any {
+        return 0.0;
+    }
+    let d: f64 = (0..3).map(|k| (hi[k] as f64 - lo[k] as f64).powi(2)).sum();
+    d.sqrt() * step
+}
+
+impl GapSum {
+    /// The step's RMS distance in model units.
+    pub(crate) fn model_rms(self, step: f64) -> f64 {
+        self.rms() * step
+    }
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{DecodeOptions, Decoder, EncodeOptions, Limits, compress, decompress};
+    use qm_lift::synthetic::bumpy_sphere;
+
+    fn sphere_file(level: u32) -> Vec<u8> {
+        compress(&bumpy_sphere(level), &EncodeOptions::DEFAULT)
+            .unwrap()
+            .bytes
+    }
+
+    /// Cuts from the base alone to the whole file, the stream halving
+    /// from one to the one before.
+    fn cuts(bytes: &[u8], count: usize) -> Vec<usize> {
+        let start = Decoder::new(bytes, &Limits::DEFAULT)
+            .unwrap()
+            .stream_start();
+        let mut cuts: Vec<usize> = (0..count)
+            .map(|k| start + ((bytes.len() - start) >> (count - 1 - k)))
+            .collect();
+        cuts.insert(0, start);
+        cuts
+    }
+
+    #[test]
+    fn gaps_shrink_towards_the_finest_level_and_the_rest_with_bytes() {
+        let bytes = sphere_file(5);
+        let mut last_remaining = f64::INFINITY;
+        let mut coarser = 0;
+        for cut in cuts(&bytes, 12) {
+            let d = decompress(&bytes, &DecodeOptions::DEFAULT.with_max_bytes(Some(cut))).unwrap();
+            let e = &d.estimate;
+            assert!(e.diagonal > 2.0 && e.diagonal < 2.6, "{}", e.diagonal);
+            if cut == bytes.len() {
+                assert_eq!((d.level, e.remaining), (5, 0.0), "complete: lossless");
+                continue;
+            }
+            assert_eq!(e.gaps.len(), 6);
+            assert_eq!(e.gaps[5], 0.0);
+            assert!(e.gaps.windows(2).all(|w| w[0] >= w[1]), "{:?}", e.gaps);
+            assert!(e.gaps[0] > e.gaps[4], "{:?}", e.gaps);
+            assert!(
+                e.remaining >= 0.0 && e.remaining <= last_remaining * 1.1,
+                "cut {cut}: {} after {last_remaining}, {} passes",
+                e.remaining,
+                d.passes
+            );
+            last_remaining = e.remaining;
+            // The level taken is the coarsest within the tolerance.
+            assert_eq!(d.level, e.coarsest_within(DEFAULT_TOLERANCE_DB));
+            let within = 10f64.powf(DEFAULT_TOLERANCE_DB / 20.0);
+            assert!(e.error(d.level) <= e.remaining * within * 1.0001);
+            if d.level > 0 {
+                assert!(e.error(d.level - 1) > e.remaining * within);
+            }
+            coarser += usize::from(d.level < 5);
+        }
+        assert!(coarser >= 3, "short cuts choose coarser levels");
+    }
+
+    #[test]
+    fn the_remaining_error_falls_with_the_passes() {
+        for bytes in [sphere_file(5), sphere_file(3)] {
+            let passes = Decoder::new(&bytes, &Limits::DEFAULT)
+                .unwrap()
+                .header()
+                .passes;
+            let remaining = |p| {
+                let options = DecodeOptions::DEFAULT.with_passes(Some(p));
+                decompress(&bytes, &options).unwrap().estimate.remaining
+            };
+            let all: Vec<f64> = (0..=u32::from(passes)).map(remaining).collect();
+            // A pass may reveal a coarse level larger than its bound said,
+            // which raises the finer levels' bounds: two passes always fall.
+            assert!(
+                all.windows(3).all(|w| w[2] < w[0] || w[2] == 0.0),
+                "{all:?}"
+            );
+            assert!(all.windows(2).all(|w| w[1] <= 1.25 * w[0]), "{all:?}");
+            assert_eq!(all.last(), Some(&0.0));
+        }
+    }
+
+    #[test]
+    fn the_automatic_mesh_is_the_fixed_level_decode() {
+        let bytes = sphere_file(4);
+        for cut in cuts(&bytes, 6) {
+            let options = DecodeOptions::DEFAULT.with_max_bytes(Some(cut));
+            let auto = decompress(&bytes, &options).unwrap();
+            let fixed =
+                decompress(&bytes, &options.with_level(LevelChoice::Fixed(auto.level))).unwrap();
+            assert_eq!(auto.level_mesh(), fixed.level_mesh(), "cut {cut}");
+            assert_eq!(auto.estimate, fixed.estimate, "cut {cut}");
+            let finest = decompress(&bytes, &options.with_level(LevelChoice::Finest)).unwrap();
+            assert_eq!(finest.level, 4);
+            assert_eq!(finest.estimate.remaining, auto.estimate.remaining);
+            assert_eq!(finest.passes, auto.passes);
+        }
+    }
+
+    #[test]
+    fn a_triangle_cap_lowers_the_level() {
+        let bytes = sphere_file(4);
+        for (cap, level) in [(1, 0), (12, 0), (47, 0), (48, 1), (200, 2), (1 << 20, 4)] {
+            let options = DecodeOptions::DEFAULT
+                .with_level(LevelChoice::Finest)
+                .with_max_triangles(Some(cap));
+            let d = decompress(&bytes, &options).unwrap();
+            assert_eq!(d.level, level, "cap {cap}");
+            let auto = decompress(&bytes, &options.with_level(LevelChoice::Auto)).unwrap();
+            assert!(auto.level <= level);
+        }
+    }
+
+    /// An error goal stops at the first pass end that meets it and uses no
+    /// byte past it.
+    #[test]
+    fn an_error_goal_uses_the_first_pass_that_meets_it() {
+        let bytes = sphere_file(4);
+        let whole = decompress(&bytes, &DecodeOptions::DEFAULT).unwrap();
+        let diagonal = whole.estimate.diagonal;
+        let mut last_used = 0;
+        for db in [40.0, 55.0, 70.0, 85.0] {
+            let goal = diagonal / 10f64.powf(db / 20.0);
+            let d = decompress(&bytes, &DecodeOptions::DEFAULT.with_max_error(Some(goal))).unwrap();
+            assert!(d.estimate.remaining <= goal, "{db} dB");
+            assert!(!d.truncated);
+            let used = d.header_bytes + d.base_bytes + d.decoded_stream_bytes;
+            assert!(used < bytes.len() && used >= last_used, "{db} dB: {used}");
+            last_used = used;
+            // That many bytes decode the same passes; one pass fewer misses.
+            let cut =
+                decompress(&bytes, &DecodeOptions::DEFAULT.with_max_bytes(Some(used))).unwrap();
+            assert_eq!(cut.passes, d.passes);
+            if d.passes > 0 {
+                let fewer = DecodeOptions::DEFAULT.with_passes(Some(d.passes - 1));
+                assert!(decompress(&bytes, &fewer).unwrap().estimate.remaining > goal);
+            }
+        }
+    }
+
+    #[test]
+    fn gaps_add_up_and_extrapolate() {
+        let gaps = gaps_from_steps(&[4.0, 3.0], 4);
+        let expect = [
+            (16.0f64 + 9.0 + 0.5625 + 0.03515625).sqrt(),
+            (9.0f64 + 0.5625 + 0.03515625).sqrt(),
+            (0.5625f64 + 0.03515625).sqrt(),
+            0.1875,
+            0.0,
+        ];
+        for (g, e) in gaps.iter().zip(expect) {
+            assert!((g - e).abs() < 1e-12, "{gaps:?}");
+        }
+        assert_eq!(gaps_from_steps(&[], 0), vec![0.0]);
+    }
+}
