@@ -61,6 +61,7 @@ function assertEqualsNative(file, result, bytes, level) {
 }
 
 async function page(server) {
+  b.errors.length = 0;
   await b.page.goto(`${server.url}loader.html`);
   await b.page.waitForFunction(() => window.qmTest && window.qmTest.frames() > 2);
 }
