@@ -1,5 +1,5 @@
 // The page of js/bench/measure.mjs: loads one model either with QMLoader
-// (streaming the whole file, or to a maxError goal) or with three.js's
+// (streaming the whole file, or to a maxBytes or maxError goal) or with three.js's
 // DRACOLoader (the whole file), and reports when the first frame showing the
 // mesh was drawn and how many bytes had arrived then. Both decoders are
 // loaded and started before the timed load.
@@ -24,7 +24,7 @@ function bytesOf(name) {
 }
 
 window.qmBench = {
-  async run(kind, { qm, drc, maxError }) {
+  async run(kind, { qm, drc, maxError, maxBytes }) {
     try {
       let first = null;
       let done = null;
@@ -47,12 +47,12 @@ window.qmBench = {
         await loader._getPool().acquire().then((w) => loader._getPool().release(w));
         const t0 = performance.now();
         let firstSeen = null;
-        const options = kind === 'qmGoal' ? { maxError } : { level: 'auto' };
+        const options = kind === 'qmError' ? { maxError } : kind === 'qmBytes' ? { maxBytes } : {};
         const stream = loader.stream(qm, {
           ...options,
           requestInit: { cache: 'no-store' },
           onUpdate: (u) => {
-            if (!firstSeen) firstSeen = frame().then((t) => ({ ms: t - t0, bytes: u.bytes }));
+            if (!firstSeen) firstSeen = frame().then((t) => ({ ms: t - t0, bytes: u.bytesUsed, received: u.bytes, level: u.level, vertices: u.vertexCount }));
           },
         });
         scene.add(new THREE.Mesh(stream.geometry, material));
@@ -63,7 +63,7 @@ window.qmBench = {
         vertices = last.vertexCount;
         loader.dispose();
       }
-      return { ok: true, firstMs: first.ms, firstBytes: first.bytes, doneMs: done.ms, doneBytes: done.bytes, vertices };
+      return { ok: true, firstMs: first.ms, firstBytes: first.bytes, firstReceived: first.received ?? first.bytes, firstVertices: first.vertices ?? vertices, doneMs: done.ms, doneBytes: done.bytes, vertices };
     } catch (e) {
       return { ok: false, error: String(e && e.message ? e.message : e) };
     }

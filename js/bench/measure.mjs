@@ -1,6 +1,7 @@
 // Measurements of the packages, for docs/js.md:
 //   1. size: qm-decoder's wasm (raw, gzip -9) against Draco's decoder wasm
-//      (draco_decoder.wasm from npm draco3d, `npm pack draco3d`);
+//      (draco_decoder.wasm from npm draco3d, `npm pack draco3d`, and the
+//      browser build three.js ships for DRACOLoader);
 //   2. speed: the wasm decoder (qm-decoder in Node, the same V8 as Chromium)
 //      against the native one (`cargo run --release -p qm-wasm --example
 //      bench`) on a whole file, by default the Stanford bunny;
@@ -55,10 +56,14 @@ if (!fs.existsSync(path.join(dracoDir, 'package', 'draco_decoder.wasm'))) {
 }
 const dracoVersion = JSON.parse(fs.readFileSync(path.join(dracoDir, 'package', 'package.json'), 'utf8')).version;
 const dracoWasm = fs.readFileSync(path.join(dracoDir, 'package', 'draco_decoder.wasm'));
-const dracoGlue = fs.readFileSync(path.join(dracoDir, 'package', 'draco_wasm_wrapper.js'));
+// DRACOLoader loads the browser build three.js ships (its own wasm and wrapper).
+const threeDraco = path.join(clean, 'node_modules', 'three', 'examples', 'jsm', 'libs', 'draco');
+const threeWasm = fs.readFileSync(path.join(threeDraco, 'draco_decoder.wasm'));
+const threeGlue = fs.readFileSync(path.join(threeDraco, 'draco_wasm_wrapper.js'));
 result.size = {
   qm: { wasm: qmWasm.length, wasmGzip: gz(qmWasm), glueGzip: gz(qmGlue) },
-  draco: { version: dracoVersion, wasm: dracoWasm.length, wasmGzip: gz(dracoWasm), glueGzip: gz(dracoGlue) },
+  draco3d: { version: dracoVersion, wasm: dracoWasm.length, wasmGzip: gz(dracoWasm) },
+  threeDraco: { wasm: threeWasm.length, wasmGzip: gz(threeWasm), glueGzip: gz(threeGlue) },
 };
 console.error('sizes', JSON.stringify(result.size));
 
@@ -123,8 +128,11 @@ result.draco = dracoAt(Number(qp));
 
 // The qm prefix that reaches 65 dB against the input (for the table), and
 // the maxError the loader gets: the decoder's own estimate at that prefix.
+const probe = new decoder.StreamDecoder();
+probe.push(qmBytes);
 const prefixes = [];
-for (let n = 1500; n < qmBytes.length; n = Math.round(n * 1.25)) prefixes.push(n);
+for (let n = probe.streamStart; n < qmBytes.length; n = Math.round(n * 1.08)) prefixes.push(n);
+probe.dispose();
 let qm65 = null;
 for (const n of prefixes) {
   const obj = path.join(work, `${name}-${n}.obj`);
@@ -148,7 +156,7 @@ fs.copyFileSync(path.join(js, 'bench', 'bench.html'), path.join(www, 'bench.html
 await esbuild.build({ entryPoints: [benchPage], bundle: true, format: 'esm', target: 'es2022', outdir: www, absWorkingDir: clean, logLevel: 'warning' });
 const dracoLib = path.join(www, 'draco');
 fs.mkdirSync(dracoLib, { recursive: true });
-for (const f of ['draco_decoder.wasm', 'draco_wasm_wrapper.js']) fs.copyFileSync(path.join(dracoDir, 'package', f), path.join(dracoLib, f));
+for (const f of ['draco_decoder.wasm', 'draco_wasm_wrapper.js']) fs.copyFileSync(path.join(threeDraco, f), path.join(dracoLib, f));
 fs.copyFileSync(drc(qp), path.join(www, `${name}.drc`));
 fs.copyFileSync(qmFile, path.join(www, `${name}.qm`));
 const models = path.join(work, 'serve');
@@ -156,7 +164,12 @@ fs.mkdirSync(models, { recursive: true });
 fs.copyFileSync(qmFile, path.join(models, `${name}.qm`));
 
 const server = await serve(models, { web: www });
-const loads = { qmStream: [], qmGoal: [], draco: [] };
+// qmStream: the whole file, shown from the first refinement; qmBytes: the
+// 65 dB prefix by maxBytes (what a client reading the glTF level table
+// asks for); qmError: the same goal as maxError (the decoder's estimate),
+// with a wasm binding that estimates errors.
+const loads = { qmStream: [], qmBytes: [], draco: [] };
+if (qm65 && Number.isFinite(qm65.error)) loads.qmError = [];
 try {
   for (let i = 0; i < repeat; i++) {
     for (const kind of Object.keys(loads)) {
@@ -173,8 +186,8 @@ try {
           uploadThroughput: (kbps * 1000) / 8,
         });
         const r = await b.page.evaluate(
-          ([k, file, drcFile, maxError]) => window.qmBench.run(k, { qm: file, drc: drcFile, maxError }),
-          [kind, `${name}.qm`, `${name}.drc`, qm65?.error],
+          ([k, file, drcFile, maxError, maxBytes]) => window.qmBench.run(k, { qm: file, drc: drcFile, maxError, maxBytes }),
+          [kind, `${name}.qm`, `${name}.drc`, qm65?.error, qm65?.bytes],
         );
         if (!r.ok) throw new Error(`${kind}: ${r.error}`);
         loads[kind].push(r);
@@ -189,9 +202,12 @@ try {
 const summary = (xs) => ({
   firstMs: median(xs.map((x) => x.firstMs)),
   firstBytes: median(xs.map((x) => x.firstBytes)),
+  firstReceived: median(xs.map((x) => x.firstReceived)),
+  firstVertices: median(xs.map((x) => x.firstVertices)),
   doneMs: median(xs.map((x) => x.doneMs)),
   doneBytes: median(xs.map((x) => x.doneBytes)),
   vertices: median(xs.map((x) => x.vertices)),
 });
-result.throttled = { kbps, latencyMs: 40, repeat, qmStream: summary(loads.qmStream), qmGoal: summary(loads.qmGoal), draco: summary(loads.draco) };
+result.throttled = { kbps, latencyMs: 40, repeat };
+for (const [kind, xs] of Object.entries(loads)) result.throttled[kind] = summary(xs);
 console.log(JSON.stringify(result, null, 2));
