@@ -5,11 +5,13 @@
 //      Node tests (test/node/*.test.mjs, copied there) run with `node --test`;
 //   2. a clean folder with both tarballs and three, where the browser test
 //      pages (test/browser/pages/*.js) are bundled with esbuild into www/;
-//      test/browser/*.test.mjs then drive them in headless Chromium.
+//      test/browser/*.test.mjs then drive them in headless Chromium;
+//   3. in that folder, `tsc --noEmit --strict` of test/types/check.ts, a
+//      use of both packages' declarations (with @types/three).
 // Needs `js/build.sh` (the tarballs in $CARGO_TARGET_DIR/js) and release
 // builds of qm and the qm-wasm examples; `.ci/web` does both.
 //
-//   node test/run.mjs [node|browser]...   (default: both)
+//   node test/run.mjs [node|browser|types]...   (default: all)
 
 import { execFileSync, spawnSync } from 'node:child_process';
 import fs from 'node:fs';
@@ -98,6 +100,21 @@ if (run('browser')) {
     env: { ...process.env, QM_WWW: www },
   });
   if (r.status !== 0) failed = true;
+}
+
+if (run('types')) {
+  const dir = path.join(out, 'clean-web');
+  if (!fs.existsSync(path.join(dir, 'node_modules', 'three-qm-loader'))) {
+    console.error('error: the types check needs the browser step first (node test/run.mjs browser types)');
+    process.exit(1);
+  }
+  const types = JSON.parse(fs.readFileSync(path.join(js, 'node_modules', '@types', 'three', 'package.json'), 'utf8')).version;
+  npm(dir, ['install', '--prefer-offline', '--no-save', `@types/three@${types}`]);
+  fs.copyFileSync(path.join(js, 'test', 'types', 'check.ts'), path.join(dir, 'check.ts'));
+  const tsc = path.join(js, 'node_modules', 'typescript', 'bin', 'tsc');
+  const r = spawnSync(process.execPath, [tsc, '--noEmit', '--strict', '--skipLibCheck', 'false', '--target', 'es2022', '--module', 'nodenext', '--moduleResolution', 'nodenext', '--lib', 'es2022,dom', 'check.ts'], { cwd: dir, stdio: 'inherit' });
+  if (r.status === 0) console.log('# types: tsc --strict accepts both packages\' declarations');
+  else failed = true;
 }
 
 process.exit(failed ? 1 : 0);

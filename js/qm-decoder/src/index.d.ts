@@ -97,7 +97,7 @@ export declare class StreamDecoder {
   /** Changes the goal for the next refine() (maxMemory stays as it was). */
   setOptions(options: Omit<DecodeOptions, 'maxMemory'>): void;
   /** Appends bytes; true once the header and base mesh are complete. Throws QMError. */
-  push(chunk: ArrayBufferView | ArrayBuffer): boolean;
+  push(chunk: ArrayBufferView | ArrayBufferLike): boolean;
   /** Decodes what has arrived; null when nothing changed or not ready. Throws QMError. */
   refine(): QMMesh | null;
   /** No more bytes will come: throws QMError 'truncated' before the base mesh, else refine(). */
@@ -122,4 +122,4 @@ export declare class StreamDecoder {
 }
 
 /** Decodes a whole file (or its first maxBytes) at once. Rejects with QMError. */
-export declare function decode(bytes: ArrayBufferView | ArrayBuffer, options?: DecodeOptions): Promise<QMMesh>;
+export declare function decode(bytes: ArrayBufferView | ArrayBufferLike, options?: DecodeOptions): Promise<QMMesh>;

@@ -102,7 +102,7 @@ export declare class QMLoader extends Loader<BufferGeometry> {
   /** Default options of load(), loadAsync() and parse(). */
   setDecodeOptions(options: QMDecodeOptions): this;
   /** Streams a .qm (URL or bytes) into one geometry refined in place. */
-  stream(source: string | URL | ArrayBuffer | ArrayBufferView, options?: QMStreamOptions): QMStream;
+  stream(source: string | URL | ArrayBufferLike | ArrayBufferView, options?: QMStreamOptions): QMStream;
   load(
     url: string,
     onLoad?: (geometry: BufferGeometry) => void,
@@ -110,8 +110,8 @@ export declare class QMLoader extends Loader<BufferGeometry> {
     onError?: (err: unknown) => void,
   ): void;
   /** Decodes a .qm in memory, in a worker. */
-  parseAsync(bytes: ArrayBuffer | ArrayBufferView, options?: QMDecodeOptions): Promise<BufferGeometry>;
-  parse(bytes: ArrayBuffer | ArrayBufferView, onLoad: (geometry: BufferGeometry) => void, onError?: (err: unknown) => void): void;
+  parseAsync(bytes: ArrayBufferLike | ArrayBufferView, options?: QMDecodeOptions): Promise<BufferGeometry>;
+  parse(bytes: ArrayBufferLike | ArrayBufferView, onLoad: (geometry: BufferGeometry) => void, onError?: (err: unknown) => void): void;
   /** Stops the workers. */
   dispose(): this;
 }
