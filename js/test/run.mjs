@@ -78,6 +78,9 @@ if (run('browser')) {
     fs.copyFileSync(path.join(pages, f), path.join(dir, f));
     if (f.endsWith('.html')) fs.copyFileSync(path.join(pages, f), path.join(www, f));
   }
+  // For setDecoderPath: the wasm file the package ships.
+  fs.mkdirSync(path.join(www, 'libs'));
+  fs.copyFileSync(path.join(dir, 'node_modules', 'three-qm-loader', 'dist', 'qm_decoder_bg.wasm'), path.join(www, 'libs', 'qm_decoder_bg.wasm'));
   // qm serve --web wants an index.html.
   fs.copyFileSync(path.join(pages, 'loader.html'), path.join(www, 'index.html'));
   // Bundled from the clean folder, so that the bare imports resolve to the

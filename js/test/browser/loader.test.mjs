@@ -181,6 +181,22 @@ test('an abort rejects with the signal reason; the page goes on', { timeout: 600
   assert.ok(frames >= 3);
 });
 
+test('setDecoderPath fetches the wasm; loadAsync reports progress', { timeout: 60000 }, async () => {
+  await page(fast);
+  fast.log.length = 0;
+  const r = await b.page.evaluate(() => window.qmTest.loadWithDecoderPath('libs/', 'models/cube.qm'));
+  assert.equal(r.ok, true, JSON.stringify(r.error));
+  assert.ok(r.vertexCount > 0);
+  assert.ok(r.progress.length >= 1);
+  assert.deepEqual(r.progress.at(-1), { loaded: cube.bytes.length, total: cube.bytes.length, lengthComputable: true });
+  await new Promise((resolve) => setTimeout(resolve, 200));
+  assert.equal(requests(fast.log, '/libs/qm_decoder_bg.wasm').length, 1, fast.log.join('\n'));
+  const missing = await b.page.evaluate(() => window.qmTest.loadWithDecoderPath('nowhere/', 'models/cube.qm'));
+  assert.equal(missing.ok, false);
+  assert.equal(missing.error.code, 'http');
+  assert.match(missing.error.message, /setDecoderPath/);
+});
+
 test('qm-decoder decodes on the main thread and in a module worker', { timeout: 60000 }, async () => {
   await page(fast);
   const here = await b.page.evaluate(() => window.qmTest.decodeHere('models/cube.qm', { level: 'finest' }));
@@ -218,5 +234,22 @@ test('a GLB with QM_progressive_mesh: fallback with GLTFLoader, streamed with th
     assertEqualsNative(spot.file, streamed.final, spot.bytes.length, streamed.final.level);
     assert.ok(streamed.covered > 0.05);
   }
+  // With maxError, the plugin asks for exactly the bytes of the first row of
+  // the level table that meets it (the errors here are made up).
+  const table = path.join(www, 'spot-table.glb');
+  const levels = [
+    { bytes: 12000, passes: 4, level: 3, triangles: 0, error: 0.01 },
+    { bytes: 30000, passes: 7, level: 4, triangles: 0, error: 0.001 },
+    { bytes: spot.bytes.length, passes: 19, level: 5, triangles: 0, error: 0 },
+  ];
+  writeGlb(table, { qm: spot.bytes, uri: 'spot-static.qm', fallback: native(spot.file, fallbackBytes, level), fallbackBytes, fallbackLevel: level, levels });
+  fast.log.length = 0;
+  const goal = await b.page.evaluate(() => window.qmTest.gltf('spot-table.glb', { plugin: true, options: { maxError: 0.005, level: 'finest', requestInit: { cache: 'no-store' } } }));
+  assert.equal(goal.ok, true, JSON.stringify(goal.error));
+  assert.equal(goal.final.bytes, 30000);
+  assertEqualsNative(spot.file, goal.final, 30000, goal.final.level);
+  await new Promise((resolve) => setTimeout(resolve, 200));
+  const sent = requests(fast.log, '/spot-static.qm');
+  assert.deepEqual(sent.map((s) => [s.range, s.status, s.bytes]), [['0-29999', 206, 30000]], fast.log.join('\n'));
   assert.deepEqual(b.errors, []);
 });

@@ -142,6 +142,20 @@ window.qmTest = {
     }
   },
 
+  // A loader that fetches the wasm from `decoderPath`; loadAsync with onProgress.
+  async loadWithDecoderPath(decoderPath, url) {
+    const own = new QMLoader().setDecoderPath(decoderPath).setWorkerLimit(1);
+    const progress = [];
+    try {
+      const geometry = await own.loadAsync(url, (e) => progress.push({ loaded: e.loaded, total: e.total, lengthComputable: e.lengthComputable }));
+      return { ok: true, vertexCount: geometry.getAttribute('position').count, progress };
+    } catch (e) {
+      return { ok: false, error: errorInfo(e), progress };
+    } finally {
+      own.dispose();
+    }
+  },
+
   // qm-decoder itself, on the main thread and in a module worker.
   async decodeHere(url, options = {}) {
     await ready();
