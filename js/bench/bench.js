@@ -24,7 +24,7 @@ function bytesOf(name) {
 }
 
 window.qmBench = {
-  async run(kind, { qm, drc, maxError, maxBytes }) {
+  async run(kind, { qm, drc, maxError, maxBytes, level }) {
     try {
       let first = null;
       let done = null;
@@ -47,7 +47,7 @@ window.qmBench = {
         await loader._getPool().acquire().then((w) => loader._getPool().release(w));
         const t0 = performance.now();
         let firstSeen = null;
-        const options = kind === 'qmError' ? { maxError } : kind === 'qmBytes' ? { maxBytes } : {};
+        const options = { qmError: { maxError }, qmBytes: { maxBytes }, qmBytesLevel: { maxBytes, level } }[kind] ?? {};
         const stream = loader.stream(qm, {
           ...options,
           requestInit: { cache: 'no-store' },

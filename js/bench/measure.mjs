@@ -10,7 +10,7 @@
 //      goal by maxError) against DRACOLoader loading a Draco file of about
 //      65 dB, bytes and milliseconds from the start of the load.
 //
-//   node bench/measure.mjs [--model OBJ] [--kbps 1000] [--runs 15] [--repeat 3] [--qp Q]
+//   node bench/measure.mjs [--model OBJ] [--kbps 1000] [--runs 15] [--repeat 3] [--qp Q] [--level 3]
 //
 // Needs js/build.sh, release builds of qm and the qm-wasm examples, the
 // browser test pages (node test/run.mjs browser bundles them) and
@@ -32,6 +32,7 @@ const opt = (name, fallback) => {
 const model = path.resolve(opt('model', path.join(root, '..', 'shared', 'models', 'stanford-bunny.obj')));
 const kbps = Number(opt('kbps', 1000)); // kilobits per second
 const runs = Number(opt('runs', 15));
+const shownLevel = Number(opt('level', 3));
 const repeat = Number(opt('repeat', 3));
 const work = path.join(out, 'bench');
 fs.mkdirSync(work, { recursive: true });
@@ -168,7 +169,9 @@ const server = await serve(models, { web: www });
 // 65 dB prefix by maxBytes (what a client reading the glTF level table
 // asks for); qmError: the same goal as maxError (the decoder's estimate),
 // with a wasm binding that estimates errors.
-const loads = { qmStream: [], qmBytes: [], draco: [] };
+// qmBytesLevel: the same prefix shown at --level (default 3), the level a
+// decoder that picks the level the bytes support would choose there.
+const loads = { qmStream: [], qmBytes: [], qmBytesLevel: [], draco: [] };
 if (qm65 && Number.isFinite(qm65.error)) loads.qmError = [];
 try {
   for (let i = 0; i < repeat; i++) {
@@ -186,8 +189,8 @@ try {
           uploadThroughput: (kbps * 1000) / 8,
         });
         const r = await b.page.evaluate(
-          ([k, file, drcFile, maxError, maxBytes]) => window.qmBench.run(k, { qm: file, drc: drcFile, maxError, maxBytes }),
-          [kind, `${name}.qm`, `${name}.drc`, qm65?.error, qm65?.bytes],
+          ([k, file, drcFile, maxError, maxBytes, level]) => window.qmBench.run(k, { qm: file, drc: drcFile, maxError, maxBytes, level }),
+          [kind, `${name}.qm`, `${name}.drc`, qm65?.error, qm65?.bytes, shownLevel],
         );
         if (!r.ok) throw new Error(`${kind}: ${r.error}`);
         loads[kind].push(r);

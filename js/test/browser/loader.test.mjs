@@ -179,6 +179,19 @@ test('an abort rejects with the signal reason; the page goes on', { timeout: 600
     return window.qmTest.frames() - n;
   });
   assert.ok(frames >= 3);
+  // The aborted stream resumes from what it has.
+  const more = await b.page.evaluate(() => window.qmTest.resume({ maxBytes: 20000, level: 'finest' }));
+  assert.equal(more.ok, true, JSON.stringify(more.error));
+  assert.equal(more.last.bytes, 20000);
+  assertEqualsNative(spot.file, more, 20000, more.last.level);
+  // A maxBytes inside the base mesh is 'truncated', and a larger one goes on.
+  const cut = await b.page.evaluate(() => window.qmTest.stream('models/spot.qm', { maxBytes: 40 }, { geometry: false }));
+  assert.equal(cut.ok, false);
+  assert.equal(cut.error.code, 'truncated');
+  assert.match(cut.error.message, /maxBytes/);
+  const after = await b.page.evaluate(() => window.qmTest.resume({ maxBytes: 6000, level: 'finest' }));
+  assert.equal(after.ok, true, JSON.stringify(after.error));
+  assertEqualsNative(spot.file, after, 6000, after.last.level);
 });
 
 test('setDecoderPath fetches the wasm; loadAsync reports progress', { timeout: 60000 }, async () => {

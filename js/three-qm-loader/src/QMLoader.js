@@ -123,7 +123,7 @@ export class QMStream {
     const goal = goalOf(options);
     for (const k of GOAL_KEYS) if (k in options && options[k] === undefined) delete this.goal[k];
     Object.assign(this.goal, goal);
-    if (options.signal !== undefined) this.signal = options.signal;
+    this.signal = options.signal; // a signal stops one run: stream()'s or this one
     if (options.onUpdate !== undefined) this.onUpdate = options.onUpdate;
     this.done = this.#run(true);
     return this.done;
@@ -216,9 +216,15 @@ export class QMStream {
       return this.#update();
     } catch (e) {
       this.stopper?.abort();
-      if (!this.failure && !(e && e.name === 'AbortError')) this.failure = e;
       // Let the worker finish what it has (it may still be decoding).
       await this.busy?.catch(() => {});
+      // A bad file stays failed; after a network error or an abort,
+      // resume() may try again from the bytes already in.
+      // So may a maxBytes that ended inside the base mesh, with a larger one.
+      const retry = !(e instanceof QMError) || e.code === 'http' || e.code === 'aborted'
+        || (e.code === 'truncated' && !this.eof && this.goal.maxBytes !== undefined);
+      if (retry) this.failure = null;
+      else this.failure ??= e;
       throw e;
     } finally {
       this.running = false;

@@ -87,7 +87,11 @@ export declare class QMStream {
   readonly error: number;
   readonly psnr: number;
   readonly complete: boolean;
-  /** Sets a new goal (e.g. a smaller maxError) and goes on from the bytes already received, by Range. */
+  /**
+   * Sets a new goal (e.g. a smaller maxError) and goes on from the bytes
+   * already received, by Range. Also after an abort or a network error; not
+   * after a bad file. `signal` stops this run only (stream()'s does not).
+   */
   resume(options?: QMGoal & { signal?: AbortSignal; onUpdate?: (update: QMUpdate) => void }): Promise<QMUpdate>;
   /** Stops fetching and frees the worker's decoder (the geometry stays). */
   dispose(): void;
