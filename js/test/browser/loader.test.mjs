@@ -136,6 +136,36 @@ test('a prefix by maxBytes: the native mesh of that prefix, and no more sent', {
   assert.deepEqual(b.errors, []);
 });
 
+test('maxError: growing ranges, stopped once the decoder says the goal is met', { timeout: 120000 }, async (t) => {
+  await page(throttled);
+  const probe = await b.page.evaluate(() => window.qmTest.decodeHere('models/spot.qm', { maxBytes: 40000 }));
+  assert.equal(probe.ok, true, JSON.stringify(probe.error));
+  if (!Number.isFinite(probe.error)) {
+    t.skip('this wasm binding has no error estimates');
+    return;
+  }
+  throttled.log.length = 0;
+  const r = await b.page.evaluate((maxError) => window.qmTest.stream('models/spot.qm', { maxError }, { geometry: false }), probe.error);
+  assert.equal(r.ok, true, JSON.stringify(r.error));
+  assert.ok(r.last.error <= probe.error, `error ${r.last.error} for maxError ${probe.error}`);
+  assert.ok(r.last.bytesUsed <= 40000, `${r.last.bytesUsed} bytes used`);
+  await new Promise((resolve) => setTimeout(resolve, 300));
+  const sent = requests(throttled.log, '/models/spot.qm');
+  assert.ok(sent.length >= 2 && sent.every((s) => s.status === 206), JSON.stringify(sent));
+  // Ranges follow one another and double what arrived.
+  let at = 0;
+  for (const s of sent) {
+    const [first, last] = s.range.split('-').map(Number);
+    assert.equal(first, at, JSON.stringify(sent));
+    at = last + 1;
+  }
+  // The server sent at most one request's slack past the bytes used.
+  const total = sent.reduce((n, s) => n + s.bytes, 0);
+  const [first, last] = sent.at(-1).range.split('-').map(Number);
+  assert.ok(total - r.last.bytesUsed <= last - first + 1, `${total} bytes sent, ${r.last.bytesUsed} used`);
+  assert.ok(total < spot.bytes.length / 2);
+});
+
 test('bad files reject with a clear QMError and the page keeps running', { timeout: 120000 }, async () => {
   await page(fast);
   const cases = [

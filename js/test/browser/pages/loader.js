@@ -162,7 +162,7 @@ window.qmTest = {
     const bytes = new Uint8Array(await (await fetch(url, { cache: 'no-store' })).arrayBuffer());
     try {
       const m = await decode(bytes, options);
-      return { ok: true, vertexCount: m.vertexCount, level: m.level, complete: m.complete, positions: Array.from(m.positions.subarray(0, 30)) };
+      return { ok: true, vertexCount: m.vertexCount, level: m.level, complete: m.complete, error: m.error, bytesUsed: m.bytesUsed, positions: Array.from(m.positions.subarray(0, 30)) };
     } catch (e) {
       return { ok: false, error: errorInfo(e) };
     }
