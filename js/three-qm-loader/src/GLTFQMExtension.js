@@ -98,6 +98,12 @@ export class GLTFQMExtension {
       source = new Uint8Array(buffer);
     } else if (typeof ext.uri === 'string') {
       source = LoaderUtils.resolveURL(ext.uri, this.parser.options.path ?? '');
+      // The glTF's own request settings, unless the options say otherwise.
+      const { requestHeader, crossOrigin } = this.parser.options;
+      options.requestInit ??= {
+        headers: { ...(requestHeader ?? {}) },
+        credentials: crossOrigin === 'use-credentials' ? 'include' : 'same-origin',
+      };
     } else {
       throw new Error(`${NAME} on mesh ${meshIndex} primitive ${primitiveIndex}: neither bufferView nor uri`);
     }

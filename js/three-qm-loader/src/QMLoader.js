@@ -369,9 +369,9 @@ export class QMLoader extends Loader {
 
   #requestInit(extra = {}) {
     return {
-      headers: { ...this.requestHeader, ...(extra.headers ?? {}) },
       credentials: this.withCredentials ? 'include' : 'same-origin',
       ...extra,
+      headers: { ...this.requestHeader, ...(extra.headers ?? {}) },
     };
   }
 
