@@ -194,20 +194,25 @@ enum Command {
         #[arg(long, default_value_t = qm::param::distance::DEFAULT_SEED)]
         seed: u64,
     },
-    /// Serve the browser viewer and .qm files on 127.0.0.1 (the viewer
-    /// streams a file and refines the mesh as bytes arrive).
+    /// Serve the browser viewer and model files on 127.0.0.1, with byte
+    /// ranges for progressive streaming (see docs/serve.md).
     Serve {
-        /// A .qm file, or a folder whose .qm files are offered.
+        /// A .qm, .glb or .gltf file, or a folder whose .qm, .glb and .gltf
+        /// files (and the .bin files beside a .gltf) are offered.
         path: PathBuf,
         /// TCP port (0: any free port; the URL is printed).
         #[arg(long, default_value_t = 8000)]
         port: u16,
-        /// Send .qm files at most this fast, in KB/s, to watch the progression.
+        /// Send model files at most this fast, in KB/s, to watch the progression.
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
         throttle: Option<u32>,
         /// The built viewer (default: web/dist of this source tree).
         #[arg(long)]
         web: Option<PathBuf>,
+        /// Seconds a connection may take to send a request head, or stay
+        /// idle between requests, or leave a piece of a response untaken.
+        #[arg(long, value_name = "SECS", default_value_t = serve::DEFAULT_TIMEOUT, value_parser = seconds)]
+        timeout: f64,
         /// No log lines (the URL is still printed).
         #[arg(long)]
         quiet: bool,
@@ -272,12 +277,14 @@ fn main() -> ExitCode {
             port,
             throttle,
             web,
+            timeout,
             quiet,
         } => serve::serve(serve::ServeOptions {
             path,
             port,
             throttle,
             web,
+            timeout: std::time::Duration::from_secs_f64(timeout),
             quiet,
         }),
     };
@@ -296,6 +303,14 @@ fn on_off(value: &str) -> Result<bool, String> {
         "on" => Ok(true),
         "off" => Ok(false),
         _ => Err("expected on or off".into()),
+    }
+}
+
+/// A time in seconds, more than 0 and at most an hour.
+fn seconds(value: &str) -> Result<f64, String> {
+    match value.trim().parse::<f64>() {
+        Ok(s) if s > 0.0 && s <= 3600.0 => Ok(s),
+        _ => Err("expected seconds, more than 0 and at most 3600".into()),
     }
 }
 

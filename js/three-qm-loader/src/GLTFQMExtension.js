@@ -1,0 +1,116 @@
+// GLTFLoader plugin for the glTF extension QM_progressive_mesh (see
+// docs/gltf.md in the qm repository): a primitive whose progressive geometry
+// is a .qm stream, in a bufferView of the GLB or an external file by `uri`.
+// The primitive's ordinary accessors (the fallback, one level decoded
+// exactly) load as usual; once the scene is loaded, the plugin streams the
+// .qm and refines the geometry of every mesh made from the primitive in
+// place. It never shows a mesh coarser than the fallback: refinements from
+// fewer bytes than the fallback's are decoded but not shown.
+
+import { LoaderUtils } from 'three';
+import { QMLoader } from './QMLoader.js';
+
+const NAME = 'QM_progressive_mesh';
+
+// The bytes of the first row of the extension's table that meets the goal
+// (the client asks for exactly those), or undefined (the whole stream).
+function bytesFor(ext, { maxError, maxBytes }) {
+  let bytes;
+  if (maxError !== undefined && Array.isArray(ext.levels)) {
+    const row = ext.levels.find((r) => typeof r.error === 'number' && r.error <= maxError);
+    if (row) bytes = row.bytes;
+  }
+  if (maxBytes !== undefined) bytes = bytes === undefined ? maxBytes : Math.min(bytes, maxBytes);
+  return bytes;
+}
+
+export class GLTFQMExtension {
+  constructor(parser, options = {}) {
+    this.parser = parser;
+    this.name = NAME;
+    const { loader, autoStream = true, onPrimitiveUpdate, ...streamOptions } = options;
+    this.loader = loader ?? null;
+    this.ownLoader = !loader;
+    this.autoStream = autoStream;
+    this.onPrimitiveUpdate = onPrimitiveUpdate;
+    this.streamOptions = streamOptions;
+    this.streams = [];
+    this.targets = [];
+    let settle;
+    this.done = new Promise((resolve, reject) => {
+      settle = { resolve, reject };
+    });
+    this.settle = settle;
+    this.done.catch(() => {}); // observed through the promise the caller holds
+  }
+
+  // Called by GLTFLoader once the scene is built: find the geometries made
+  // from primitives with the extension and stream them (without holding up
+  // onLoad: the fallback shows meanwhile).
+  afterRoot(result) {
+    const json = this.parser.json;
+    const seen = new Map();
+    for (const scene of result.scenes ?? [result.scene]) {
+      scene.traverse((object) => {
+        if (!object.isMesh) return;
+        const association = this.parser.associations.get(object);
+        if (!association || association.meshes === undefined) return;
+        const meshIndex = association.meshes;
+        const primitiveIndex = association.primitives ?? 0;
+        const primitive = json.meshes?.[meshIndex]?.primitives?.[primitiveIndex];
+        const ext = primitive?.extensions?.[NAME];
+        if (!ext || seen.has(object.geometry)) return;
+        seen.set(object.geometry, true);
+        this.targets.push({ geometry: object.geometry, ext, meshIndex, primitiveIndex });
+      });
+    }
+    if (this.autoStream) this.stream();
+    else if (this.targets.length === 0) this.settle.resolve([]);
+    return null;
+  }
+
+  /** Streams every primitive's .qm (done by afterRoot unless autoStream is false). */
+  stream() {
+    if (this.streams.length) return this.done;
+    this.loader ??= new QMLoader(this.parser.options.manager);
+    const runs = this.targets.map((t) => this.#streamOne(t));
+    Promise.all(runs).then(this.settle.resolve, this.settle.reject);
+    if (this.ownLoader) this.done.finally(() => this.loader.dispose()).catch(() => {});
+    return this.done;
+  }
+
+  async #streamOne({ geometry, ext, meshIndex, primitiveIndex }) {
+    const { onUpdate, ...rest } = this.streamOptions;
+    const maxBytes = bytesFor(ext, rest);
+    const options = {
+      ...rest,
+      geometry,
+      showFrom: ext.fallback?.bytes ?? 0,
+      onUpdate: (u) => {
+        onUpdate?.(u);
+        this.onPrimitiveUpdate?.({ ...u, meshIndex, primitiveIndex });
+      },
+    };
+    if (maxBytes !== undefined) options.maxBytes = maxBytes;
+    let source;
+    if (typeof ext.bufferView === 'number') {
+      const buffer = await this.parser.getDependency('bufferView', ext.bufferView);
+      source = new Uint8Array(buffer);
+    } else if (typeof ext.uri === 'string') {
+      source = LoaderUtils.resolveURL(ext.uri, this.parser.options.path ?? '');
+      // The glTF's own request settings, unless the options say otherwise.
+      const { requestHeader, crossOrigin } = this.parser.options;
+      options.requestInit ??= {
+        headers: { ...(requestHeader ?? {}) },
+        credentials: crossOrigin === 'use-credentials' ? 'include' : 'same-origin',
+      };
+    } else {
+      throw new Error(`${NAME} on mesh ${meshIndex} primitive ${primitiveIndex}: neither bufferView nor uri`);
+    }
+    const stream = this.loader.stream(source, options);
+    this.streams.push(stream);
+    const update = await stream.done;
+    stream.dispose();
+    return update;
+  }
+}

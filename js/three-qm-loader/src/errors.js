@@ -1,0 +1,1 @@
+export { QMError } from '../../qm-decoder/src/errors.js';
