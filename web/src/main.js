@@ -129,25 +129,17 @@ function fail(message) {
   resolveDone(state);
 }
 
-// The level shown: the one chosen, or (auto) the finest level with at most
-// one vertex per 16 bits of stream received so far (?vpb=: vertices per
-// byte), so that the vertex count grows with the detail that arrived; the
-// finest once the whole file is in.
-const VERTICES_PER_BYTE = Number(params.get('vpb')) || 0.5;
+// The level shown: the one chosen, or -1: the level the bytes support
+// (the decoder's own choice; the finest once the file is complete).
 function shownLevel() {
-  if (levelChoice >= 0) return levelChoice;
-  if (state.streamEnded && pending.length === 0) return state.finestLevel;
-  const budget = VERTICES_PER_BYTE * Math.max(0, decoder.bytesReceived - decoder.streamStart);
-  for (let l = state.finestLevel; l > 0; l--) {
-    if (decoder.vertexCountAt(l) <= budget) return l;
-  }
-  return 0;
+  return levelChoice >= 0 ? levelChoice : -1;
 }
 
 // Decodes everything received so far and replaces the shown mesh.
 function refine() {
   const t = performance.now();
-  const changed = decoder.refine(shownLevel());
+  decoder.setLevel(shownLevel());
+  const changed = decoder.refine();
   if (!changed) return;
   const positions = decoder.positions();
   const normals = decoder.normals();
@@ -293,9 +285,10 @@ function bench(runs = 9) {
   const bytes = allBytes();
   const median = (xs) => xs.slice().sort((a, b) => a - b)[Math.floor(xs.length / 2)];
   const once = (prefix) => {
-    const d = new QmDecoder();
+    const d = new QmDecoder(0);
+    d.setLevel(-2);
     d.push(prefix);
-    d.refine(-1);
+    d.refine();
     const vertices = d.vertexCount;
     d.free();
     return vertices;
@@ -401,7 +394,7 @@ $('model').addEventListener('change', () => $('reload').click());
 
 async function main() {
   await init();
-  decoder = new QmDecoder();
+  decoder = new QmDecoder(0);
   let url = params.get('file');
   if (!url) {
     const models = await fetch('models.json', { cache: 'no-store' })
