@@ -241,6 +241,94 @@ fn truncated_files_decode_and_cuts_in_the_header_say_how_much_is_needed() {
     assert!(!dir.path().join("cut.obj").exists(), "no output on failure");
 }
 
+/// Vertices of an OBJ written by `qm decompress`.
+fn obj_vertices(path: &Path) -> usize {
+    qm::read_mesh(path).unwrap().positions.len()
+}
+
+#[test]
+fn levels_table_level_choice_goals_and_gltf() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(asset("quad/cc_cube.obj"), dir.path().join("cube.obj")).unwrap();
+    assert!(
+        qm(&["compress", "cube.obj", "--quiet"], dir.path())
+            .status
+            .success()
+    );
+    let size = std::fs::metadata(dir.path().join("cube.qm")).unwrap().len();
+
+    // The prefix table: growing bytes, the whole file last and lossless.
+    let out = qm(&["info", "cube.qm", "--levels", "--json"], dir.path());
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = v["levels"].as_array().unwrap();
+    let bytes: Vec<u64> = rows.iter().map(|r| r["bytes"].as_u64().unwrap()).collect();
+    assert!(bytes.windows(2).all(|b| b[0] < b[1]), "{bytes:?}");
+    let last = rows.last().unwrap();
+    assert_eq!(last["bytes"].as_u64(), Some(size));
+    assert_eq!(last["level"], v["level"]);
+    assert_eq!(last["error"].as_f64(), Some(0.0));
+    let text = qm(&["info", "cube.qm", "--levels"], dir.path());
+    assert!(String::from_utf8_lossy(&text.stdout).contains("psnr dB"));
+
+    // A prefix decodes at the level the bytes support unless told.
+    let coarse = rows
+        .iter()
+        .find(|r| r["level"].as_u64() < v["level"].as_u64())
+        .unwrap();
+    let cut = coarse["bytes"].to_string();
+    let decode = |extra: &[&str], output: &str| {
+        let mut args = vec!["decompress", "cube.qm", "-o", output];
+        args.extend_from_slice(extra);
+        let out = qm(&args, dir.path());
+        assert!(out.status.success(), "{extra:?}: {}", stderr(&out));
+        (stderr(&out), obj_vertices(&dir.path().join(output)))
+    };
+    let (said, auto) = decode(&["--bytes", &cut], "auto.obj");
+    assert!(
+        said.contains(&format!("level {} of", coarse["level"])),
+        "{said}"
+    );
+    assert!(said.contains("estimated error"), "{said}");
+    assert_eq!(auto as u64, coarse["vertices"].as_u64().unwrap());
+    let (_, finest) = decode(&["--bytes", &cut, "--level", "finest"], "finest.obj");
+    let (_, zero) = decode(&["--bytes", &cut, "--level", "0"], "zero.obj");
+    assert!(zero < auto && auto < finest, "{zero} {auto} {finest}");
+    let (_, capped) = decode(&["--max-triangles", "100"], "capped.obj");
+    assert!(capped < finest);
+    let goal = coarse["error"].to_string();
+    let (said, _) = decode(&["--max-error", &goal, "--quiet"], "goal.obj");
+    assert!(said.is_empty());
+    let bad = qm(&["decompress", "cube.qm", "--level", "fine"], dir.path());
+    assert_eq!(bad.status.code(), Some(2));
+
+    // The GLB: the fallback the summary names, the .qm inside or not.
+    let out = qm(&["gltf", "cube.qm"], dir.path());
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(stderr(&out).contains("fallback: level"), "{}", stderr(&out));
+    let glb = std::fs::read(dir.path().join("cube.glb")).unwrap();
+    assert_eq!(&glb[..4], b"glTF");
+    assert!(glb.len() as u64 > size);
+    let out = qm(
+        &[
+            "gltf", "cube.qm", "-o", "far.glb", "--uri", "cube.qm", "--quiet",
+        ],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!((std::fs::metadata(dir.path().join("far.glb")).unwrap().len()) < glb.len() as u64);
+    let out = qm(&["gltf", "cube.qm", "-o", "cube.gltf"], dir.path());
+    assert_fails_cleanly(&out, "cube.gltf", "must be .glb");
+    std::fs::write(
+        dir.path().join("cut.qm"),
+        &std::fs::read(dir.path().join("cube.qm")).unwrap()[..30],
+    )
+    .unwrap();
+    let out = qm(&["gltf", "cut.qm"], dir.path());
+    assert_fails_cleanly(&out, "cut.qm", "needed");
+    assert!(!dir.path().join("cut.glb").exists(), "no output on failure");
+}
+
 #[test]
 fn bad_input_fails_with_one_line_and_exit_1() {
     let dir = tempfile::tempdir().unwrap();

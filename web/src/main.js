@@ -112,8 +112,8 @@ function showStats() {
   $('s-bytes').textContent = state.totalBytes
     ? `${fmtBytes(state.bytes)} / ${fmtBytes(state.totalBytes)}`
     : fmtBytes(state.bytes);
-  $('s-passes').textContent = decoder?.ready() ? `${state.passes} / ${state.totalPasses}` : '–';
-  $('s-level').textContent = decoder?.ready() ? `${state.level} / ${state.finestLevel}` : '–';
+  $('s-passes').textContent = decoder?.ready ? `${state.passes} / ${state.totalPasses}` : '–';
+  $('s-level').textContent = decoder?.ready ? `${state.level} / ${state.finestLevel}` : '–';
   $('s-vertices').textContent = state.vertices.toLocaleString('en');
   $('s-triangles').textContent = state.triangles.toLocaleString('en');
   $('s-ttfp').textContent = state.ttfpMs === null ? '–' : `${state.ttfpMs.toFixed(0)} ms`;
@@ -188,22 +188,22 @@ function onReady() {
 function frame() {
   try {
     if (pending.length && !state.error && !paused) {
-      const wasReady = decoder.ready();
+      const wasReady = decoder.ready;
       for (const chunk of pending) {
         decoder.push(chunk);
       }
       pending = [];
       state.bytes = decoder.bytesReceived;
-      if (decoder.ready()) {
+      if (decoder.ready) {
         if (!wasReady) onReady();
         refine();
       }
       dirty = true;
-    } else if (dirty && decoder?.ready()) {
+    } else if (dirty && decoder?.ready) {
       refine(); // a level change
     }
     if (state.streamEnded && !state.done && pending.length === 0 && !paused) {
-      if (!decoder.ready()) {
+      if (!decoder.ready) {
         fail('the file ended inside the header or base mesh');
       } else {
         refine(); // the finest level once everything is in
@@ -351,9 +351,9 @@ window.qmViewer = {
   pause: (on) => {
     paused = on;
   },
-  positions: () => (decoder?.ready() ? Array.from(decoder.positions()) : []),
-  indices: () => (decoder?.ready() ? Array.from(decoder.indices()) : []),
-  checksum: () => (decoder?.ready() && state.vertices ? decoder.checksum() : null),
+  positions: () => (decoder?.ready ? Array.from(decoder.positions()) : []),
+  indices: () => (decoder?.ready ? Array.from(decoder.indices()) : []),
+  checksum: () => (decoder?.ready && state.vertices ? decoder.checksum() : null),
 };
 
 // --- controls ------------------------------------------------------------

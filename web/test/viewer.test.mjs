@@ -1,8 +1,9 @@
 // The viewer in a real browser: headless Chromium (Debian's package, driven
 // by playwright-core) streams spot.qm from `qm serve --throttle`, and at
-// three moments (the first picture, an intermediate level, the end) the
+// three moments (the first picture, two passes later, the end) the
 // test takes a screenshot and checks that
-//   - the vertex count grows and the rendered pixels change between moments,
+//   - bytes and passes grow, the vertex count never falls, the mesh
+//     changes and covers pixels,
 //   - the mesh shown equals what the native one-shot decoder makes of the
 //     same bytes at the same level (checksum of quantized values and
 //     triangles),
@@ -42,15 +43,6 @@ async function moment(page, name) {
   }
   await page.evaluate(() => window.qmViewer.pause(false));
   return snap;
-}
-
-function changedFraction(a, b) {
-  assert.equal(a.grey.length, b.grey.length);
-  let changed = 0;
-  for (let i = 0; i < a.grey.length; i++) {
-    if (Math.abs(a.grey[i] - b.grey[i]) > 8) changed++;
-  }
-  return changed / a.grey.length;
 }
 
 function coveredFraction(p) {
@@ -104,14 +96,18 @@ test('the viewer streams spot.qm throttled, refines, and ends with the native me
     assert.equal(first.error, null);
     assert.ok(first.bytes < bytes.length, 'the first picture comes before the whole file');
 
+    // Two passes later. With the decoder choosing the level the bytes
+    // support, spot reaches its finest level on about its first 1.2 KB,
+    // so the first picture may already be at the finest level: what
+    // refines from there on is the detail, not the vertex count.
     await b.page.waitForFunction(
-      ([l, finest]) => {
+      (p) => {
         const v = window.qmViewer;
-        const seen = v.state.level >= Math.max(l + 1, finest - 1) && v.state.level < finest;
+        const seen = v.state.passes >= p + 2;
         if (seen) v.pause(true);
         return seen;
       },
-      [first.level, first.finestLevel],
+      first.passes,
       { timeout: 60000, polling: 'raf' },
     );
     const middle = await moment(b.page, 'stage-2');
@@ -128,14 +124,17 @@ test('the viewer streams spot.qm throttled, refines, and ends with the native me
     assert.equal(last.level, last.finestLevel);
     assert.equal(last.passes, last.totalPasses);
 
-    // The vertex count grows, the picture changes, the mesh covers pixels.
-    assert.ok(first.vertices < middle.vertices && middle.vertices < last.vertices,
+    // Bytes and passes grow, the vertex count never falls, the picture
+    // changes, the mesh covers pixels.
+    assert.ok(first.bytes < middle.bytes && first.passes < middle.passes, `passes ${first.passes}, ${middle.passes}`);
+    assert.ok(first.vertices <= middle.vertices && middle.vertices <= last.vertices,
       `vertices ${first.vertices}, ${middle.vertices}, ${last.vertices}`);
     for (const m of [first, middle, last]) {
       assert.ok(coveredFraction(m.pixels) > 0.05, `the mesh covers ${coveredFraction(m.pixels)} of the picture`);
     }
-    assert.ok(changedFraction(first.pixels, middle.pixels) > 0.002, 'pixels change from stage 1 to 2');
-    assert.ok(changedFraction(middle.pixels, last.pixels) > 0.002, 'pixels change from stage 2 to 3');
+    // The mesh changes at each moment (the picture may barely: the first
+    // one can come after a dozen kilobytes, at 77 dB).
+    assert.ok(first.checksum !== middle.checksum && middle.checksum !== last.checksum, 'the mesh changes');
 
     // Each mesh shown is the native decoder's for the same bytes and level.
     for (const m of [first, middle, last]) {

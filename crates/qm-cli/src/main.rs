@@ -156,9 +156,22 @@ enum Command {
         /// Decode at most this many passes.
         #[arg(long)]
         passes: Option<u32>,
-        /// Output this subdivision level (0 = base mesh; default: finest).
-        #[arg(long)]
-        level: Option<u32>,
+        /// Output level: `auto` (the coarsest level within --tolerance of
+        /// the finest one's estimated error at this prefix: the level the
+        /// bytes support), `finest`, or a number (0 = base mesh).
+        #[arg(long, default_value = "auto", value_parser = level_choice)]
+        level: qm::LevelChoice,
+        /// Stop at the first pass whose estimated RMS error (model units)
+        /// is at most this, using no more of the file.
+        #[arg(long, value_name = "RMS", value_parser = non_negative)]
+        max_error: Option<f64>,
+        /// Output no level with more triangles than this.
+        #[arg(long, value_name = "N")]
+        max_triangles: Option<u64>,
+        /// How much worse, in dB of estimated PSNR, `--level auto` may be
+        /// than the finest level at the same prefix.
+        #[arg(long, value_name = "DB", default_value_t = qm::codec::DEFAULT_TOLERANCE_DB, value_parser = non_negative)]
+        tolerance: f64,
         /// Most memory the decoder may take, e.g. 512M or 8G (default 1G);
         /// a file that asks for more is refused before anything is
         /// allocated.
@@ -168,10 +181,43 @@ enum Command {
         #[arg(long)]
         quiet: bool,
     },
+    /// Write a .qm file as a glTF binary (.glb) with the extension
+    /// QM_progressive_mesh: a coarse fallback mesh any glTF viewer shows,
+    /// and the .qm (embedded, or at --uri) that qm's loaders stream.
+    Gltf {
+        /// Input .qm file.
+        input: PathBuf,
+        /// Output .glb (default: the input with extension .glb).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Leave the .qm out of the GLB and point at this URI (relative to
+        /// the GLB) instead, so that clients fetch it by byte ranges.
+        #[arg(long)]
+        uri: Option<String>,
+        /// The fallback's level (default: the finest with at most
+        /// --fallback-triangles triangles).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(0..=qm::lift::MAX_LEVEL as i64))]
+        fallback_level: Option<u32>,
+        /// Most triangles of the default fallback level.
+        #[arg(long, default_value_t = qm::gltf::DEFAULT_FALLBACK_TRIANGLES)]
+        fallback_triangles: u64,
+        /// Decode the fallback from the first N bytes (default: the fewest
+        /// that support its level).
+        #[arg(long, value_name = "N")]
+        fallback_bytes: Option<usize>,
+        /// No summary output.
+        #[arg(long)]
+        quiet: bool,
+    },
     /// Describe a .qm file.
     Info {
         /// Input .qm file.
         input: PathBuf,
+        /// Also list what each prefix ending at a pass decodes to: its bytes,
+        /// the level the bytes support, triangles and estimated error
+        /// (decodes the whole file).
+        #[arg(long)]
+        levels: bool,
         /// Print JSON.
         #[arg(long)]
         json: bool,
@@ -261,10 +307,46 @@ fn main() -> ExitCode {
             bytes,
             passes,
             level,
+            max_error,
+            max_triangles,
+            tolerance,
             max_memory,
             quiet,
-        } => decompress(&input, output, bytes, passes, level, max_memory, quiet),
-        Command::Info { input, json } => info(&input, json),
+        } => {
+            let limits = max_memory.map_or(qm::Limits::DEFAULT, |m| {
+                qm::Limits::DEFAULT.with_max_memory(m)
+            });
+            let options = qm::DecodeOptions::default()
+                .with_limits(limits)
+                .with_max_bytes(bytes)
+                .with_passes(passes)
+                .with_level(level)
+                .with_max_error(max_error)
+                .with_max_triangles(max_triangles)
+                .with_tolerance_db(tolerance);
+            decompress(&input, output, &options, quiet)
+        }
+        Command::Gltf {
+            input,
+            output,
+            uri,
+            fallback_level,
+            fallback_triangles,
+            fallback_bytes,
+            quiet,
+        } => {
+            let options = qm::gltf::GltfOptions::default()
+                .with_uri(uri)
+                .with_fallback_level(fallback_level)
+                .with_fallback_triangles(Some(fallback_triangles))
+                .with_fallback_bytes(fallback_bytes);
+            gltf(&input, output, &options, quiet)
+        }
+        Command::Info {
+            input,
+            levels,
+            json,
+        } => info(&input, levels, json),
         Command::Distance {
             a,
             b,
@@ -303,6 +385,29 @@ fn on_off(value: &str) -> Result<bool, String> {
         "on" => Ok(true),
         "off" => Ok(false),
         _ => Err("expected on or off".into()),
+    }
+}
+
+/// `auto`, `finest` or a level number.
+fn level_choice(value: &str) -> Result<qm::LevelChoice, String> {
+    match value {
+        "auto" => Ok(qm::LevelChoice::Auto),
+        "finest" => Ok(qm::LevelChoice::Finest),
+        _ => match value.parse::<u32>() {
+            Ok(level) if level <= qm::lift::MAX_LEVEL => Ok(qm::LevelChoice::Fixed(level)),
+            _ => Err(format!(
+                "expected auto, finest or a level from 0 to {}",
+                qm::lift::MAX_LEVEL
+            )),
+        },
+    }
+}
+
+/// A finite number, 0 or more.
+fn non_negative(value: &str) -> Result<f64, String> {
+    match value.trim().parse::<f64>() {
+        Ok(x) if x.is_finite() && x >= 0.0 => Ok(x),
+        _ => Err("expected a finite number, 0 or more".into()),
     }
 }
 
@@ -446,10 +551,7 @@ fn report_remesh(input: &Path, r: &qm::RemeshReport) {
 fn decompress(
     input: &Path,
     output: Option<PathBuf>,
-    bytes: Option<usize>,
-    passes: Option<u32>,
-    level: Option<u32>,
-    max_memory: Option<u64>,
+    options: &qm::DecodeOptions,
     quiet: bool,
 ) -> Result<(), Failure> {
     let output = output.unwrap_or_else(|| default_output(input, "obj"));
@@ -467,41 +569,77 @@ fn decompress(
     progress.step("reading stream");
     let data = std::fs::read(input).map_err(|e| Failure::about(input, e))?;
     progress.step("decoding");
-    let limits = max_memory.map_or(qm::Limits::DEFAULT, |m| {
-        qm::Limits::DEFAULT.with_max_memory(m)
-    });
-    let options = qm::DecodeOptions::default()
-        .with_limits(limits)
-        .with_max_bytes(bytes)
-        .with_passes(passes)
-        .with_level(level.map_or(qm::LevelChoice::Auto, qm::LevelChoice::Fixed));
-    let qm::Decoded {
-        mesh, raw: decoded, ..
-    } = qm::decode(&data, &options).map_err(|e| Failure::about(input, e))?;
+    let decoded = qm::decode(&data, options).map_err(|e| Failure::about(input, e))?;
     progress.step("writing mesh");
-    qm::write_mesh(&output, &mesh).map_err(|e| Failure::about(&output, e))?;
+    qm::write_mesh(&output, &decoded.mesh).map_err(|e| Failure::about(&output, e))?;
     progress.finish();
     if !quiet {
-        let used = decoded.header_bytes + decoded.base_bytes + decoded.stream_bytes;
+        let raw = &decoded.raw;
+        let used = raw.header_bytes + raw.base_bytes + raw.stream_bytes;
         eprintln!(
-            "{}: {} of {} bytes{}, {} of {} passes -> {}: level {}, {} vertices, {} quads",
+            "{}: {} of {} bytes{}, {} of {} passes -> {}: level {} of {}, {} vertices, {} quads, estimated error {:.3e} ({:.1} dB)",
             input.display(),
             used,
             data.len(),
-            if decoded.decoded_stream_bytes < decoded.stream_bytes {
-                format!(
-                    " (inside a hold: decoded as the first {})",
-                    used - decoded.stream_bytes + decoded.decoded_stream_bytes
-                )
+            if raw.decoded_stream_bytes < raw.stream_bytes {
+                let decoded = used - raw.stream_bytes + raw.decoded_stream_bytes;
+                match options.max_error {
+                    Some(_) => format!(" (the error goal met after the first {decoded})"),
+                    None => format!(" (inside a hold: decoded as the first {decoded})"),
+                }
             } else {
                 String::new()
             },
-            decoded.passes,
-            decoded.header.passes,
+            raw.passes,
+            raw.header.passes,
             output.display(),
-            decoded.level,
-            mesh.positions.len(),
-            mesh.face_count(),
+            raw.level,
+            raw.layout.level(),
+            decoded.mesh.positions.len(),
+            decoded.mesh.face_count(),
+            decoded.error_estimate(),
+            decoded.psnr_estimate(),
+        );
+    }
+    Ok(())
+}
+
+fn gltf(
+    input: &Path,
+    output: Option<PathBuf>,
+    options: &qm::gltf::GltfOptions,
+    quiet: bool,
+) -> Result<(), Failure> {
+    let output = output.unwrap_or_else(|| default_output(input, "glb"));
+    refuse_overwriting_input(input, &output)?;
+    if output
+        .extension()
+        .is_none_or(|e| !e.eq_ignore_ascii_case("glb"))
+    {
+        return Err(Failure::new(format!(
+            "{}: output must be .glb",
+            output.display()
+        )));
+    }
+    let data = std::fs::read(input).map_err(|e| Failure::about(input, e))?;
+    let glb = qm::gltf::to_glb(&data, options).map_err(|e| Failure::about(input, e))?;
+    write_atomic(&output, &glb.bytes)?;
+    if !quiet {
+        eprintln!(
+            "{} -> {}: {} bytes; fallback: level {}, {} vertices, {} triangles, from the first {} bytes (estimated {:.1} dB); the .qm {}; {} prefixes in the table",
+            input.display(),
+            output.display(),
+            glb.bytes.len(),
+            glb.fallback_level,
+            glb.fallback_vertices,
+            glb.fallback_triangles,
+            glb.fallback_bytes,
+            glb.fallback_psnr_db,
+            options
+                .uri
+                .as_ref()
+                .map_or("embedded".to_string(), |u| format!("at {u}")),
+            glb.levels.len(),
         );
     }
     Ok(())
@@ -534,9 +672,37 @@ struct Info {
     faces: u64,
     bbox_min: [f64; 3],
     step: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    levels: Option<Vec<PrefixRow>>,
 }
 
-fn info(input: &Path, json: bool) -> Result<(), Failure> {
+/// One row of `qm info --levels`: what the prefix ending at a pass decodes to.
+#[derive(serde::Serialize)]
+struct PrefixRow {
+    bytes: usize,
+    passes: u32,
+    level: u32,
+    vertices: usize,
+    triangles: u64,
+    error: f64,
+    psnr: f64,
+}
+
+impl From<qm::PrefixRow> for PrefixRow {
+    fn from(r: qm::PrefixRow) -> Self {
+        PrefixRow {
+            bytes: r.bytes,
+            passes: r.passes,
+            level: r.level,
+            vertices: r.vertices,
+            triangles: r.triangles,
+            error: r.error,
+            psnr: r.psnr_db,
+        }
+    }
+}
+
+fn info(input: &Path, levels: bool, json: bool) -> Result<(), Failure> {
     let data = std::fs::read(input).map_err(|e| Failure::about(input, e))?;
     // Describing a file allocates only its base mesh.
     let limits = qm::Limits::DEFAULT.with_max_memory(u64::MAX);
@@ -571,7 +737,16 @@ fn info(input: &Path, json: bool) -> Result<(), Failure> {
         faces: faces * n * n,
         bbox_min: h.origin,
         step: h.step,
+        levels: None,
     };
+    let levels = if levels {
+        let rows = qm::prefix_table(&data, &qm::DecodeOptions::DEFAULT)
+            .map_err(|e| Failure::about(input, e))?;
+        Some(rows.into_iter().map(PrefixRow::from).collect())
+    } else {
+        None
+    };
+    let info = Info { levels, ..info };
     if json {
         println!(
             "{}",
@@ -580,10 +755,25 @@ fn info(input: &Path, json: bool) -> Result<(), Failure> {
     } else {
         let value = serde_json::to_value(&info).expect("plain data serializes");
         for (key, v) in value.as_object().expect("a struct is an object") {
+            if key != "levels" {
+                println!(
+                    "{key:>18}: {}",
+                    v.as_str().map_or(v.to_string(), str::to_string)
+                );
+            }
+        }
+        if let Some(rows) = &info.levels {
+            println!("\nwhat each prefix decodes to (level auto, estimated error):");
             println!(
-                "{key:>18}: {}",
-                v.as_str().map_or(v.to_string(), str::to_string)
+                "{:>10} {:>6} {:>5} {:>10} {:>11} {:>11} {:>8}",
+                "bytes", "passes", "level", "vertices", "triangles", "rms", "psnr dB"
             );
+            for r in rows {
+                println!(
+                    "{:>10} {:>6} {:>5} {:>10} {:>11} {:>11.3e} {:>8.2}",
+                    r.bytes, r.passes, r.level, r.vertices, r.triangles, r.error, r.psnr
+                );
+            }
         }
     }
     Ok(())

@@ -32,4 +32,4 @@ pub use holds::Probes;
 pub use levels::{DEFAULT_TOLERANCE_DB, Estimate, LevelChoice};
 pub use qm_ezw::{self, Contexts, Weighting};
 pub use qm_lift::{self, UpdateRule};
-pub use stream::{LevelMesh, StreamDecoder};
+pub use stream::{LevelMesh, PrefixRow, StreamDecoder, prefix_table, vertex_normals};

@@ -243,7 +243,8 @@ impl StreamDecoder {
 
     /// Whether more bytes could still change the mesh: false once the
     /// whole stream is decoded, the byte budget is used up, or the error
-    /// goal (`max_error`) or the pass limit is met.
+    /// goal (`max_error`) or the pass limit is met by the last refinement
+    /// with the current options.
     pub fn wants_more(&self) -> bool {
         if self
             .options
@@ -252,9 +253,12 @@ impl StreamDecoder {
         {
             return false;
         }
-        match &self.last {
-            None => true,
-            Some(r) => r.status.truncated,
+        match (&self.last, &self.decoder) {
+            (Some(r), _) if r.options == self.options => r.status.truncated,
+            // Options changed since (a smaller error goal, more passes):
+            // more bytes help unless the whole stream is already decoded.
+            (Some(r), Some(d)) => r.status.truncated || r.status.passes < d.header().passes as u32,
+            _ => true,
         }
     }
 
@@ -276,6 +280,76 @@ impl StreamDecoder {
             estimate: &last.estimate,
         })
     }
+}
+
+/// What the prefix of a file that ends at one pass decodes to: a row of
+/// [`prefix_table`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct PrefixRow {
+    /// Bytes of the prefix: header, base mesh and the stream up to the end
+    /// of [`Self::passes`].
+    pub bytes: usize,
+    /// Bit-plane passes the prefix holds completely.
+    pub passes: u32,
+    /// The level the options choose for it ([`crate::LevelChoice::Auto`]:
+    /// the level the bytes support).
+    pub level: u32,
+    /// Vertices at that level.
+    pub vertices: usize,
+    /// Triangles at that level, two per quad.
+    pub triangles: u64,
+    /// The decoder's estimated RMS distance of that mesh from the complete
+    /// stream's finest mesh, in model units.
+    pub error: f64,
+    /// [`Self::error`] as PSNR against the bounding-box diagonal, in dB.
+    pub psnr_db: f64,
+}
+
+/// The prefix table of a whole `.qm` file: for every bit-plane pass, the
+/// bytes up to its end and the mesh that prefix decodes to with `options`
+/// (its level, size and estimated error), as a client that received just
+/// those bytes decodes it. A client that wants an error goal or a size
+/// fetches the first row that meets it; `qm info --levels` and the glTF
+/// extension print it. `options.passes`, `max_bytes` and `max_error` are
+/// ignored.
+pub fn prefix_table(bytes: &[u8], options: &DecodeOptions) -> Result<Vec<PrefixRow>> {
+    let options = options
+        .with_max_bytes(None)
+        .with_max_error(None)
+        .with_passes(None);
+    // Where each pass ends (after the base alone): decode pass by pass.
+    let mut passes = StreamDecoder::new(options);
+    passes.push(bytes)?;
+    let mut ends = vec![passes.decoder().map_or(0, Decoder::stream_start)];
+    let total = passes.decoder().map_or(0, |d| d.header().passes as u32);
+    for p in 0..=total {
+        passes.set_options(options.with_passes(Some(p)));
+        passes.refine()?;
+        let end = passes.mesh().expect("refined").bytes_used();
+        if ends.last() != Some(&end) {
+            ends.push(end);
+        }
+    }
+    // What each of those prefixes decodes to.
+    let mut decoder = StreamDecoder::new(options);
+    let mut rows = Vec::with_capacity(ends.len());
+    for end in ends {
+        decoder.push(&bytes[decoder.bytes_received()..end])?;
+        decoder.refine()?;
+        let mesh = decoder.mesh().expect("refined");
+        let level = mesh.level();
+        rows.push(PrefixRow {
+            bytes: end,
+            passes: mesh.passes(),
+            level,
+            vertices: mesh.vertex_count(),
+            triangles: 2 * mesh.quads().len() as u64,
+            error: mesh.error(),
+            psnr_db: mesh.psnr_db(),
+        });
+    }
+    Ok(rows)
 }
 
 /// The mesh of one refinement: one level's vertices and faces.
@@ -370,5 +444,118 @@ impl<'a> LevelMesh<'a> {
     /// `a b c d` as `a b c` and `a c d`.
     pub fn triangles(&self) -> &'a [u32] {
         &self.index.triangles
+    }
+}
+
+/// Area-weighted unit vertex normals of a triangle mesh (`x, y, z` per
+/// vertex, three corners per triangle) into `out`; `0, 0, 1` where a
+/// vertex has no area around it.
+pub fn vertex_normals(positions: &[f32], triangles: &[u32], out: &mut Vec<f32>) {
+    out.clear();
+    out.resize(positions.len(), 0.0);
+    let p = |i: u32| {
+        let i = i as usize * 3;
+        [positions[i], positions[i + 1], positions[i + 2]]
+    };
+    for t in triangles.chunks_exact(3) {
+        let (a, b, c) = (p(t[0]), p(t[1]), p(t[2]));
+        let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+        let n = [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ];
+        for &k in t {
+            let k = k as usize * 3;
+            for d in 0..3 {
+                out[k + d] += n[d];
+            }
+        }
+    }
+    for n in out.chunks_exact_mut(3) {
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        if len > 0.0 {
+            n.iter_mut().for_each(|x| *x /= len);
+        } else {
+            n.copy_from_slice(&[0.0, 0.0, 1.0]);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{EncodeOptions, compress, decompress};
+    use qm_lift::synthetic::bumpy_sphere;
+
+    #[test]
+    fn each_prefix_row_is_what_its_bytes_decode_to() {
+        let bytes = compress(&bumpy_sphere(5), &EncodeOptions::DEFAULT)
+            .unwrap()
+            .bytes;
+        let rows = prefix_table(&bytes, &DecodeOptions::DEFAULT).unwrap();
+        let last = rows.last().unwrap();
+        assert_eq!((last.bytes, last.level, last.error), (bytes.len(), 5, 0.0));
+        assert_eq!(
+            rows[0].bytes,
+            Decoder::new(&bytes, &Default::default())
+                .unwrap()
+                .stream_start()
+        );
+        assert!(rows.len() > 8, "{} rows", rows.len());
+        for pair in rows.windows(2) {
+            assert!(pair[0].bytes < pair[1].bytes, "{pair:?}");
+            assert!(pair[0].passes <= pair[1].passes, "{pair:?}");
+        }
+        assert!(rows.iter().any(|r| r.level < 5), "some prefix is coarser");
+        for row in &rows {
+            let options = DecodeOptions::DEFAULT.with_max_bytes(Some(row.bytes));
+            let d = decompress(&bytes, &options).unwrap();
+            assert_eq!((d.level, d.passes), (row.level, row.passes), "{row:?}");
+            assert_eq!(d.estimate.error(d.level), row.error, "{row:?}");
+            assert_eq!(d.layout.samples_at(d.level).len(), row.vertices);
+            assert_eq!(d.layout.quads(d.level).len() as u64 * 2, row.triangles);
+        }
+    }
+
+    #[test]
+    fn a_met_goal_wants_no_more_bytes_until_the_goal_changes() {
+        let bytes = compress(&bumpy_sphere(4), &EncodeOptions::DEFAULT)
+            .unwrap()
+            .bytes;
+        let rows = prefix_table(&bytes, &DecodeOptions::DEFAULT).unwrap();
+        let goal = rows[rows.len() / 2].error;
+        let mut d = StreamDecoder::new(DecodeOptions::DEFAULT.with_max_error(Some(goal)));
+        for chunk in bytes.chunks(64) {
+            if !d.wants_more() {
+                break;
+            }
+            if d.push(chunk).unwrap() {
+                d.refine().unwrap();
+            }
+        }
+        assert!(!d.wants_more());
+        assert!(d.bytes_received() < bytes.len());
+        assert!(d.mesh().unwrap().error() <= goal);
+        d.set_options(DecodeOptions::DEFAULT.with_max_error(Some(goal / 4.0)));
+        assert!(d.wants_more(), "a smaller goal wants more");
+        d.push(&bytes[d.bytes_received()..]).unwrap();
+        d.set_options(DecodeOptions::DEFAULT);
+        d.refine().unwrap();
+        assert!(!d.wants_more(), "the whole stream is decoded");
+        d.set_options(DecodeOptions::DEFAULT.with_max_error(Some(0.0)));
+        assert!(!d.wants_more(), "nothing more to decode");
+    }
+
+    #[test]
+    fn vertex_normals_of_a_square_point_up() {
+        let positions = [
+            0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 0.0, 5.0, 5.0, 5.0,
+        ];
+        let mut normals = Vec::new();
+        vertex_normals(&positions, &[0, 1, 2, 0, 2, 3], &mut normals);
+        assert_eq!(&normals[..12], &[0.0, 0.0, 1.0].repeat(4)[..]);
+        assert_eq!(&normals[12..], &[0.0, 0.0, 1.0], "a lone vertex");
     }
 }

@@ -9,7 +9,7 @@
 //! ([`error_code`]). No decoding happens here that the native decoder does
 //! not do in the same code.
 
-use qm_codec::{DecodeOptions, Error, LevelChoice, Limits, StreamDecoder};
+use qm_codec::{DecodeOptions, Error, LevelChoice, Limits, StreamDecoder, vertex_normals};
 use wasm_bindgen::prelude::*;
 
 /// The browser decoder's memory limit: 512 MiB, an eighth of the largest
@@ -160,40 +160,6 @@ pub fn decompressed_checksum(d: &qm_codec::Decompressed) -> (u64, usize, usize) 
     let values = samples.iter().map(|&s| d.values[s as usize]);
     let checksum = mesh_checksum(values, &triangles);
     (checksum, samples.len(), triangles.len() / 3)
-}
-
-/// Area-weighted unit vertex normals of a triangle mesh into `out`.
-fn vertex_normals(positions: &[f32], triangles: &[u32], out: &mut Vec<f32>) {
-    out.clear();
-    out.resize(positions.len(), 0.0);
-    let p = |i: u32| {
-        let i = i as usize * 3;
-        [positions[i], positions[i + 1], positions[i + 2]]
-    };
-    for t in triangles.chunks_exact(3) {
-        let (a, b, c) = (p(t[0]), p(t[1]), p(t[2]));
-        let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-        let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-        let n = [
-            u[1] * v[2] - u[2] * v[1],
-            u[2] * v[0] - u[0] * v[2],
-            u[0] * v[1] - u[1] * v[0],
-        ];
-        for &k in t {
-            let k = k as usize * 3;
-            for d in 0..3 {
-                out[k + d] += n[d];
-            }
-        }
-    }
-    for n in out.chunks_exact_mut(3) {
-        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-        if len > 0.0 {
-            n.iter_mut().for_each(|x| *x /= len);
-        } else {
-            n.copy_from_slice(&[0.0, 0.0, 1.0]);
-        }
-    }
 }
 
 /// The incremental decoder for JavaScript.

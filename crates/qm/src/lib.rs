@@ -26,12 +26,16 @@
 //! | [`ezw`] | `qm-ezw` | bit-plane zerotree coding, the arithmetic coder |
 //! | [`param`] | `qm-param` | input mesh to semi-regular mesh; surface distance |
 //! | [`codec`] | `qm-codec` | the `.qm` container, compress/decompress of a semi-regular mesh, the incremental [`StreamDecoder`] and the level choice |
+//!
+//! [`gltf`] writes a `.qm` as a glTF binary with the extension
+//! `QM_progressive_mesh` and a fallback mesh.
 
 #[cfg(doctest)]
 #[doc = include_str!("../../../README.md")]
 pub struct ReadmeDoctests;
 
 mod error;
+pub mod gltf;
 
 use std::path::Path;
 
@@ -45,7 +49,7 @@ pub use qm_tree as tree;
 
 pub use qm_codec::{
     Contexts, DecodeOptions, DecodeStatus, Decoder, Decompressed, EncodeOptions, Estimate, Frames,
-    LevelChoice, LevelMesh, Limits, StreamDecoder, UpdateRule, Weighting,
+    LevelChoice, LevelMesh, Limits, PrefixRow, StreamDecoder, UpdateRule, Weighting, prefix_table,
 };
 pub use qm_io::PolyMesh;
 pub use qm_lift::SemiRegularMesh;

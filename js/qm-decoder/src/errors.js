@@ -24,17 +24,6 @@ export class QMError extends Error {
   }
 }
 
-// Before the wasm binding reported codes, its messages were the only clue;
-// this reads them in the same words as the native decoder's errors.
-function codeFromMessage(message) {
-  if (/bad magic|not a \.?qm/i.test(message)) return 'not-qm';
-  if (/format version \d+ is not supported/i.test(message)) return 'unsupported-version';
-  if (/MiB of memory|memory/i.test(message)) return 'memory';
-  if (/above the limit/i.test(message)) return 'limit';
-  if (/truncated|at least \d+ needed/i.test(message)) return 'truncated';
-  return 'corrupt';
-}
-
 /** Any value thrown by the wasm decoder, as a QMError. */
 export function toQMError(e) {
   if (e instanceof QMError) return e;
@@ -42,6 +31,6 @@ export function toQMError(e) {
     return new QMError('internal', `the decoder stopped on an internal error (${e.message}); please report the file`, { cause: e });
   }
   const message = e instanceof Error ? e.message : String(e);
-  const code = e && typeof e.code === 'string' && CODES.includes(e.code) ? e.code : codeFromMessage(message);
+  const code = e && typeof e.code === 'string' && CODES.includes(e.code) ? e.code : 'internal';
   return new QMError(code, message, { cause: e });
 }

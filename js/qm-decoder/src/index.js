@@ -56,10 +56,6 @@ export function isReady() {
   return loaded;
 }
 
-// The wasm binding grew level, error and triangle settings; until every
-// build has them, an older one decodes at the finest level without them.
-const hasSettings = () => typeof QmDecoder.prototype.setLevel === 'function';
-
 function levelCode(level) {
   if (level === undefined || level === null || level === 'auto') return -1;
   if (level === 'finest') return -2;
@@ -112,7 +108,7 @@ export class StreamDecoder {
     this.#options = { ...options };
     const maxMemory = options.maxMemory ?? 0;
     try {
-      this.#d = hasSettings() ? new QmDecoder(maxMemory) : new QmDecoder();
+      this.#d = new QmDecoder(maxMemory);
     } catch (e) {
       throw toQMError(e);
     }
@@ -125,7 +121,6 @@ export class StreamDecoder {
   }
 
   #configure() {
-    if (!hasSettings()) return;
     const d = this.#decoder();
     const o = this.#options;
     try {
@@ -169,7 +164,7 @@ export class StreamDecoder {
     if (max !== undefined && max !== null) bytes = bytes.subarray(0, Math.max(0, max - this.#pushed));
     this.#pushed += bytes.length;
     try {
-      return bytes.length ? d.push(bytes) : d.ready();
+      return bytes.length ? d.push(bytes) : d.ready;
     } catch (e) {
       throw toQMError(e);
     }
@@ -181,10 +176,10 @@ export class StreamDecoder {
    */
   refine() {
     const d = this.#decoder();
-    if (!d.ready()) return null;
+    if (!d.ready) return null;
     let changed;
     try {
-      changed = hasSettings() ? d.refine() : d.refine(levelCode(this.#options.level) >= 0 ? this.#options.level : -1);
+      changed = d.refine();
     } catch (e) {
       throw toQMError(e);
     }
@@ -200,7 +195,7 @@ export class StreamDecoder {
   end() {
     const d = this.#decoder();
     this.#ended = true;
-    if (!d.ready()) {
+    if (!d.ready) {
       const needed = this.bytesNeeded;
       const cut = this.#options.maxBytes !== undefined && this.#pushed >= this.#options.maxBytes ? ` (maxBytes ${this.#options.maxBytes})` : '';
       throw new QMError(
@@ -213,7 +208,6 @@ export class StreamDecoder {
 
   #mesh() {
     const d = this.#d;
-    const settings = hasSettings();
     return {
       positions: d.positions(),
       normals: d.normals(),
@@ -222,10 +216,10 @@ export class StreamDecoder {
       finestLevel: d.finestLevel,
       passes: d.passes,
       totalPasses: d.totalPasses,
-      bytesUsed: settings ? d.bytesUsed : d.bytesReceived,
+      bytesUsed: d.bytesUsed,
       bytesReceived: d.bytesReceived,
-      error: settings ? d.errorEstimate : NaN,
-      psnr: settings ? d.psnrEstimate : NaN,
+      error: d.errorEstimate,
+      psnr: d.psnrEstimate,
       complete: !d.truncated,
       vertexCount: d.vertexCount,
       triangleCount: d.triangleCount,
@@ -234,7 +228,7 @@ export class StreamDecoder {
 
   /** Whether the header and base mesh are complete. */
   get ready() {
-    return this.#decoder().ready();
+    return this.#decoder().ready;
   }
 
   /**
@@ -246,15 +240,13 @@ export class StreamDecoder {
     const max = this.#options.maxBytes;
     if (this.#ended) return false;
     if (max !== undefined && max !== null && this.#pushed >= max) return false;
-    if (!d.ready()) return true;
-    if (hasSettings()) return d.wantsMore;
-    return this.#last === null || d.truncated;
+    if (!d.ready) return true;
+    return d.wantsMore;
   }
 
   /** Before the base mesh: the least total bytes it needs, when known, else 0. */
   get bytesNeeded() {
-    const d = this.#decoder();
-    return hasSettings() ? d.bytesNeeded : 0;
+    return this.#decoder().bytesNeeded;
   }
 
   /** Bytes pushed so far (within maxBytes). */
@@ -284,8 +276,7 @@ export class StreamDecoder {
 
   /** Triangles of the mesh at `level` (0 before the base mesh). */
   triangleCountAt(level) {
-    const d = this.#decoder();
-    return typeof d.triangleCountAt === 'function' ? d.triangleCountAt(level) : 0;
+    return this.#decoder().triangleCountAt(level);
   }
 
   /**

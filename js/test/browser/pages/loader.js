@@ -203,7 +203,7 @@ window.qmTest = {
       if (extension) {
         const results = await extension.done;
         await nextFrames(2);
-        final = { level: results[0].level, bytes: results[0].bytes, vertexCount: mesh.geometry.getAttribute('position').count, sameGeometry: results[0].geometry === mesh.geometry, ...geometryInfo(mesh.geometry) };
+        final = { level: results[0].level, bytes: results[0].bytes, bytesUsed: results[0].bytesUsed, error: results[0].error, vertexCount: mesh.geometry.getAttribute('position').count, sameGeometry: results[0].geometry === mesh.geometry, ...geometryInfo(mesh.geometry) };
       }
       return { ok: true, fallback, fallbackCovered, final, updates, covered: covered() };
     } catch (e) {

@@ -1,0 +1,367 @@
+//! A `.qm` file as a glTF 2.0 binary (`.glb`) with the extension
+//! `QM_progressive_mesh` (specified in `docs/gltf-extension.md`).
+//!
+//! The GLB holds one mesh of one triangle primitive. Its ordinary
+//! attributes (`POSITION`, `NORMAL` and the indices) are the *fallback*: a
+//! prefix of the `.qm` decoded at a coarse level, which any glTF viewer
+//! shows. The extension points at the whole `.qm` (in a buffer view of the
+//! GLB, or at a `uri` served beside it, where a client can fetch byte
+//! ranges) and carries the file's prefix table, so that a client with a
+//! qm decoder streams the rest and knows beforehand how many bytes an error
+//! goal takes.
+
+use serde_json::{Value, json};
+
+use crate::{DecodeOptions, LevelChoice, PrefixRow, Result, StreamDecoder};
+
+/// The extension's name.
+pub const EXTENSION: &str = "QM_progressive_mesh";
+
+/// Most triangles of the default fallback: its level is the finest one
+/// with at most this many.
+pub const DEFAULT_FALLBACK_TRIANGLES: u64 = 4096;
+
+/// How [`to_glb`] writes the GLB.
+#[derive(Clone, Debug, Default, PartialEq)]
+#[non_exhaustive]
+pub struct GltfOptions {
+    /// Where the `.qm` is: `None` embeds it in the GLB; `Some(uri)` leaves
+    /// it out and points at `uri` (relative to the GLB), to be served with
+    /// byte ranges.
+    pub uri: Option<String>,
+    /// The fallback's level (default: the finest level with at most
+    /// [`Self::fallback_triangles`] triangles).
+    pub fallback_level: Option<u32>,
+    /// Most triangles of the default fallback level (default
+    /// [`DEFAULT_FALLBACK_TRIANGLES`]).
+    pub fallback_triangles: Option<u64>,
+    /// The prefix the fallback is decoded from (default: the shortest prefix
+    /// that supports the fallback's level, by the decoder's level choice).
+    pub fallback_bytes: Option<usize>,
+}
+
+impl GltfOptions {
+    /// Points the extension at `uri` instead of embedding the `.qm`.
+    pub fn with_uri(mut self, uri: Option<String>) -> Self {
+        self.uri = uri;
+        self
+    }
+
+    /// Sets the fallback's level.
+    pub fn with_fallback_level(mut self, level: Option<u32>) -> Self {
+        self.fallback_level = level;
+        self
+    }
+
+    /// Sets the most triangles of the default fallback level.
+    pub fn with_fallback_triangles(mut self, triangles: Option<u64>) -> Self {
+        self.fallback_triangles = triangles;
+        self
+    }
+
+    /// Sets the fallback's prefix.
+    pub fn with_fallback_bytes(mut self, bytes: Option<usize>) -> Self {
+        self.fallback_bytes = bytes;
+        self
+    }
+}
+
+/// A GLB written by [`to_glb`], with what went into it.
+#[derive(Clone, Debug)]
+#[non_exhaustive]
+pub struct Glb {
+    /// The `.glb` file.
+    pub bytes: Vec<u8>,
+    /// The prefix the fallback was decoded from.
+    pub fallback_bytes: usize,
+    /// The fallback's level.
+    pub fallback_level: u32,
+    /// The fallback's vertices.
+    pub fallback_vertices: usize,
+    /// The fallback's triangles.
+    pub fallback_triangles: usize,
+    /// The fallback's estimated RMS error, model units.
+    pub fallback_error: f64,
+    /// [`Self::fallback_error`] as PSNR against the bounding-box diagonal, dB.
+    pub fallback_psnr_db: f64,
+    /// The prefix table written into the extension.
+    pub levels: Vec<PrefixRow>,
+}
+
+/// Writes the whole `.qm` file `qm` as a GLB with a fallback and the
+/// extension `QM_progressive_mesh`.
+pub fn to_glb(qm: &[u8], options: &GltfOptions) -> Result<Glb> {
+    let levels = crate::prefix_table(qm, &DecodeOptions::DEFAULT)?;
+    let mut decoder = StreamDecoder::new(DecodeOptions::DEFAULT);
+    decoder.push(qm)?;
+    let finest = decoder.finest_level();
+    let most = options
+        .fallback_triangles
+        .unwrap_or(DEFAULT_FALLBACK_TRIANGLES);
+    let level = options.fallback_level.map_or_else(
+        || {
+            (0..=finest)
+                .rev()
+                .find(|&l| decoder.triangles_at(l) <= most)
+                .unwrap_or(0)
+        },
+        |l| l.min(finest),
+    );
+    let prefix = options.fallback_bytes.map_or_else(
+        || {
+            levels
+                .iter()
+                .find(|r| r.level >= level)
+                .map_or(qm.len(), |r| r.bytes)
+        },
+        |b| b.clamp(decoder.decoder().map_or(0, |d| d.stream_start()), qm.len()),
+    );
+    let mut fallback = StreamDecoder::new(
+        DecodeOptions::DEFAULT
+            .with_max_bytes(Some(prefix))
+            .with_level(LevelChoice::Fixed(level)),
+    );
+    fallback.push(qm)?;
+    fallback.refine()?;
+    let mesh = fallback.mesh().expect("refined");
+    let mut positions = Vec::new();
+    mesh.positions_f32(&mut positions);
+    let mut normals = Vec::new();
+    crate::codec::vertex_normals(&positions, mesh.triangles(), &mut normals);
+    let stream_start = decoder.decoder().map_or(0, |d| d.stream_start());
+
+    let mut bin = Bin::default();
+    let position_view = bin.add(bytes_of_f32(&positions), Some(ARRAY_BUFFER));
+    let normal_view = bin.add(bytes_of_f32(&normals), Some(ARRAY_BUFFER));
+    let vertex_count = mesh.vertex_count();
+    let (index_bytes, index_type) = if vertex_count <= u16::MAX as usize {
+        let bytes = mesh
+            .triangles()
+            .iter()
+            .flat_map(|&i| (i as u16).to_le_bytes())
+            .collect();
+        (bytes, UNSIGNED_SHORT)
+    } else {
+        let bytes = mesh
+            .triangles()
+            .iter()
+            .flat_map(|&i| i.to_le_bytes())
+            .collect();
+        (bytes, UNSIGNED_INT)
+    };
+    let index_view = bin.add(index_bytes, Some(ELEMENT_ARRAY_BUFFER));
+    let mut extension = json!({
+        "byteLength": qm.len(),
+        "streamStart": stream_start,
+        "finestLevel": finest,
+        "fallback": { "bytes": prefix, "level": level },
+        "levels": levels.iter().map(|r| json!({
+            "bytes": r.bytes,
+            "passes": r.passes,
+            "level": r.level,
+            "triangles": r.triangles,
+            "error": r.error,
+        })).collect::<Vec<_>>(),
+    });
+    match &options.uri {
+        Some(uri) => extension["uri"] = json!(uri),
+        None => extension["bufferView"] = json!(bin.add(qm.to_vec(), None)),
+    }
+    let (min, max) = bounds(&positions);
+    let document = json!({
+        "asset": {
+            "version": "2.0",
+            "generator": concat!("qm ", env!("CARGO_PKG_VERSION")),
+        },
+        "extensionsUsed": [EXTENSION],
+        "scene": 0,
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "mesh": 0 }],
+        "meshes": [{
+            "primitives": [{
+                "attributes": { "POSITION": 0, "NORMAL": 1 },
+                "indices": 2,
+                "mode": 4,
+                "extensions": { EXTENSION: extension },
+            }],
+        }],
+        "accessors": [
+            {
+                "bufferView": position_view,
+                "componentType": FLOAT,
+                "count": vertex_count,
+                "type": "VEC3",
+                "min": min,
+                "max": max,
+            },
+            { "bufferView": normal_view, "componentType": FLOAT, "count": vertex_count, "type": "VEC3" },
+            {
+                "bufferView": index_view,
+                "componentType": index_type,
+                "count": mesh.triangles().len(),
+                "type": "SCALAR",
+            },
+        ],
+        "bufferViews": bin.views,
+        "buffers": [{ "byteLength": bin.data.len() }],
+    });
+    Ok(Glb {
+        bytes: glb(&document, &bin.data),
+        fallback_bytes: prefix,
+        fallback_level: level,
+        fallback_vertices: vertex_count,
+        fallback_triangles: mesh.triangles().len() / 3,
+        fallback_error: mesh.error(),
+        fallback_psnr_db: mesh.psnr_db(),
+        levels,
+    })
+}
+
+const FLOAT: u32 = 5126;
+const UNSIGNED_SHORT: u32 = 5123;
+const UNSIGNED_INT: u32 = 5125;
+const ARRAY_BUFFER: u32 = 34962;
+const ELEMENT_ARRAY_BUFFER: u32 = 34963;
+
+/// The GLB's binary chunk and its buffer views, each 4-byte aligned.
+#[derive(Default)]
+struct Bin {
+    data: Vec<u8>,
+    views: Vec<Value>,
+}
+
+impl Bin {
+    /// Appends one buffer view; returns its index.
+    fn add(&mut self, bytes: Vec<u8>, target: Option<u32>) -> usize {
+        let mut view = json!({
+            "buffer": 0,
+            "byteOffset": self.data.len(),
+            "byteLength": bytes.len(),
+        });
+        if let Some(target) = target {
+            view["target"] = json!(target);
+        }
+        self.data.extend_from_slice(&bytes);
+        self.data.resize(self.data.len().next_multiple_of(4), 0);
+        self.views.push(view);
+        self.views.len() - 1
+    }
+}
+
+fn bytes_of_f32(values: &[f32]) -> Vec<u8> {
+    values.iter().flat_map(|x| x.to_le_bytes()).collect()
+}
+
+/// Per-axis minimum and maximum of `x, y, z` triples (glTF requires them
+/// for `POSITION`).
+fn bounds(positions: &[f32]) -> ([f32; 3], [f32; 3]) {
+    let mut min = [f32::INFINITY; 3];
+    let mut max = [f32::NEG_INFINITY; 3];
+    for p in positions.chunks_exact(3) {
+        for k in 0..3 {
+            min[k] = min[k].min(p[k]);
+            max[k] = max[k].max(p[k]);
+        }
+    }
+    (min, max)
+}
+
+/// The GLB container: a 12-byte header, the JSON chunk padded with spaces,
+/// the binary chunk padded with zeros.
+fn glb(document: &Value, bin: &[u8]) -> Vec<u8> {
+    let mut text = serde_json::to_vec(document).expect("JSON values serialize");
+    text.resize(text.len().next_multiple_of(4), b' ');
+    let total = 12 + 8 + text.len() + 8 + bin.len();
+    let mut out = Vec::with_capacity(total);
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&(total as u32).to_le_bytes());
+    out.extend_from_slice(&(text.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&text);
+    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"BIN\0");
+    out.extend_from_slice(bin);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::codec::{EncodeOptions, compress};
+    use crate::lift::synthetic::bumpy_sphere;
+
+    fn chunks(glb: &[u8]) -> (Value, &[u8]) {
+        assert_eq!(&glb[..4], b"glTF");
+        let total = u32::from_le_bytes(glb[8..12].try_into().unwrap()) as usize;
+        assert_eq!(total, glb.len());
+        let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+        assert_eq!(json_len % 4, 0);
+        let json = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
+        let bin = &glb[28 + json_len..];
+        (json, bin)
+    }
+
+    #[test]
+    fn the_glb_embeds_the_file_and_a_fallback_the_decoder_makes() {
+        let qm = compress(&bumpy_sphere(5), &EncodeOptions::DEFAULT)
+            .unwrap()
+            .bytes;
+        let glb = to_glb(&qm, &GltfOptions::default()).unwrap();
+        assert!(glb.fallback_triangles as u64 <= DEFAULT_FALLBACK_TRIANGLES);
+        assert!(glb.fallback_level >= 2, "level {}", glb.fallback_level);
+        assert!(
+            glb.fallback_bytes < qm.len() / 4,
+            "{} bytes",
+            glb.fallback_bytes
+        );
+        let (json, bin) = chunks(&glb.bytes);
+        let primitive = &json["meshes"][0]["primitives"][0];
+        let ext = &primitive["extensions"][EXTENSION];
+        let view = &json["bufferViews"][ext["bufferView"].as_u64().unwrap() as usize];
+        let offset = view["byteOffset"].as_u64().unwrap() as usize;
+        assert_eq!(&bin[offset..offset + qm.len()], &qm[..], "the file, whole");
+        assert_eq!(ext["byteLength"], qm.len());
+        assert_eq!(ext["levels"].as_array().unwrap().len(), glb.levels.len());
+        assert_eq!(ext["fallback"]["bytes"], glb.fallback_bytes);
+        // The fallback is the decoder's mesh of that prefix at that level.
+        let options = DecodeOptions::DEFAULT
+            .with_max_bytes(Some(glb.fallback_bytes))
+            .with_level(LevelChoice::Fixed(glb.fallback_level));
+        let decoded = crate::decode(&qm, &options).unwrap();
+        assert_eq!(decoded.mesh.positions.len(), glb.fallback_vertices);
+        let accessors = &json["accessors"];
+        assert_eq!(accessors[0]["count"], glb.fallback_vertices);
+        assert_eq!(accessors[2]["count"], 3 * glb.fallback_triangles);
+        assert_eq!(accessors[2]["componentType"], UNSIGNED_SHORT);
+        let first = &bin[..12];
+        let p = decoded.mesh.positions[0].as_vec3();
+        let expected: Vec<u8> = [p.x, p.y, p.z]
+            .iter()
+            .flat_map(|x| x.to_le_bytes())
+            .collect();
+        assert_eq!(first, &expected[..]);
+    }
+
+    #[test]
+    fn a_uri_leaves_the_file_out_and_levels_and_bytes_can_be_chosen() {
+        let qm = compress(&bumpy_sphere(4), &EncodeOptions::DEFAULT)
+            .unwrap()
+            .bytes;
+        let options = GltfOptions::default()
+            .with_uri(Some("sphere.qm".into()))
+            .with_fallback_level(Some(1))
+            .with_fallback_bytes(Some(qm.len() / 2));
+        let glb = to_glb(&qm, &options).unwrap();
+        assert!(glb.bytes.len() < qm.len(), "the .qm is not inside");
+        let (json, _) = chunks(&glb.bytes);
+        let ext = &json["meshes"][0]["primitives"][0]["extensions"][EXTENSION];
+        assert_eq!(ext["uri"], "sphere.qm");
+        assert!(ext.get("bufferView").is_none());
+        assert_eq!(
+            ext["fallback"],
+            json!({ "bytes": qm.len() / 2, "level": 1 })
+        );
+        assert!(to_glb(&qm[..20], &GltfOptions::default()).is_err());
+    }
+}
