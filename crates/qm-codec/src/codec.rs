@@ -556,7 +556,8 @@ pub struct DecodeOptions {
     pub level: LevelChoice,
     /// Stop at the first pass end whose estimated error
     /// ([`Estimate::remaining`], model units) is at most this, using no
-    /// more of the stream.
+    /// more of the stream; 0 decodes everything (the estimate can reach 0
+    /// before the last pass).
     pub max_error: Option<f64>,
     /// Output no level with more triangles than this (two per quad; level
     /// 0 if even that has more).
@@ -1025,7 +1026,10 @@ impl Decoder {
         let mut passes = 0;
         loop {
             let (decoded, used) = self.coefficients(stream, Some(passes), resume);
-            let met = levels::remaining(&self.header, &self.tree, &decoded, base) <= goal;
+            // A goal of 0 is the lossless mesh: the estimate reaches 0 on
+            // the last passes' tangential bits, which it does not weigh.
+            let met =
+                goal > 0.0 && levels::remaining(&self.header, &self.tree, &decoded, base) <= goal;
             if met || decoded.truncated || passes >= limit {
                 return (decoded, used);
             }

@@ -509,6 +509,11 @@ mod tests {
             assert!(pair[0].passes <= pair[1].passes, "{pair:?}");
         }
         assert!(rows.iter().any(|r| r.level < 5), "some prefix is coarser");
+        // An error goal of 0 is the whole stream, even where the estimate
+        // reached 0 a pass or more before its end.
+        let whole = decompress(&bytes, &DecodeOptions::DEFAULT.with_max_error(Some(0.0))).unwrap();
+        assert_eq!(whole.decoded_stream_bytes, whole.stream_bytes);
+        assert!(!whole.truncated);
         for row in &rows {
             let options = DecodeOptions::DEFAULT.with_max_bytes(Some(row.bytes));
             let d = decompress(&bytes, &options).unwrap();

@@ -1,5 +1,5 @@
 //! A `.qm` file as a glTF 2.0 binary (`.glb`) with the extension
-//! `QM_progressive_mesh` (specified in `docs/gltf-extension.md`).
+//! `QM_progressive_mesh` (specified in `docs/gltf.md`).
 //!
 //! The GLB holds one mesh of one triangle primitive. Its ordinary
 //! attributes (`POSITION`, `NORMAL` and the indices) are the *fallback*: a

@@ -16,7 +16,9 @@ const NAME = 'QM_progressive_mesh';
 // (the client asks for exactly those), or undefined (the whole stream).
 function bytesFor(ext, { maxError, maxBytes }) {
   let bytes;
-  if (maxError !== undefined && Array.isArray(ext.levels)) {
+  // An error goal of 0 is the lossless mesh: the whole file (the table's
+  // estimate can reach 0 a few passes before the end).
+  if (maxError !== undefined && maxError > 0 && Array.isArray(ext.levels)) {
     const row = ext.levels.find((r) => typeof r.error === 'number' && r.error <= maxError);
     if (row) bytes = row.bytes;
   }
