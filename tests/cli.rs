@@ -317,8 +317,17 @@ fn levels_table_level_choice_goals_and_gltf() {
     );
     assert!(out.status.success(), "{}", stderr(&out));
     assert!((std::fs::metadata(dir.path().join("far.glb")).unwrap().len()) < glb.len() as u64);
-    let out = qm(&["gltf", "cube.qm", "-o", "cube.gltf"], dir.path());
-    assert_fails_cleanly(&out, "cube.gltf", "must be .glb");
+    let out = qm(
+        &["gltf", "cube.qm", "-o", "cube.gltf", "--quiet"],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("cube.gltf")).unwrap()).unwrap();
+    let ext = &json["meshes"][0]["primitives"][0]["extensions"]["QM_progressive_mesh"];
+    assert_eq!(ext["uri"], "cube.qm");
+    let out = qm(&["gltf", "cube.qm", "-o", "cube.usdz"], dir.path());
+    assert_fails_cleanly(&out, "cube.usdz", "must be .glb or .gltf");
     std::fs::write(
         dir.path().join("cut.qm"),
         &std::fs::read(dir.path().join("cube.qm")).unwrap()[..30],

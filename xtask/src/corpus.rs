@@ -80,7 +80,7 @@ impl Valid {
         out.push(version);
         out.extend_from_slice(&(raw.len() as u16).to_le_bytes());
         out.extend_from_slice(raw);
-        out.extend_from_slice(&crc32fast::hash(&out).to_le_bytes());
+        out.extend_from_slice(&qm::codec::container::crc32(&out).to_le_bytes());
         out.extend_from_slice(&self.bytes[self.header_bytes..]);
         out
     }
@@ -91,7 +91,7 @@ impl Valid {
         let mut out = self.bytes[..self.header_bytes].to_vec();
         out.extend_from_slice(&(base.len() as u32).to_le_bytes());
         out.extend_from_slice(base);
-        out.extend_from_slice(&crc32fast::hash(base).to_le_bytes());
+        out.extend_from_slice(&qm::codec::container::crc32(base).to_le_bytes());
         out.extend_from_slice(self.stream());
         out
     }

@@ -181,13 +181,15 @@ enum Command {
         #[arg(long)]
         quiet: bool,
     },
-    /// Write a .qm file as a glTF binary (.glb) with the extension
-    /// QM_progressive_mesh: a coarse fallback mesh any glTF viewer shows,
-    /// and the .qm (embedded, or at --uri) that qm's loaders stream.
+    /// Write a .qm file as glTF with the extension QM_progressive_mesh: a
+    /// coarse fallback mesh any glTF viewer shows, and the .qm (embedded in
+    /// a .glb, or at --uri) that qm's loaders stream.
     Gltf {
         /// Input .qm file.
         input: PathBuf,
-        /// Output .glb (default: the input with extension .glb).
+        /// Output .glb, or .gltf (one JSON file pointing at the .qm: --uri,
+        /// by default the input's file name) (default: the input with
+        /// extension .glb).
         #[arg(short, long)]
         output: Option<PathBuf>,
         /// Leave the .qm out of the GLB and point at this URI (relative to
@@ -612,17 +614,32 @@ fn gltf(
 ) -> Result<(), Failure> {
     let output = output.unwrap_or_else(|| default_output(input, "glb"));
     refuse_overwriting_input(input, &output)?;
-    if output
+    let ext = output
         .extension()
-        .is_none_or(|e| !e.eq_ignore_ascii_case("glb"))
-    {
-        return Err(Failure::new(format!(
-            "{}: output must be .glb",
-            output.display()
-        )));
-    }
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    let json = match ext.as_deref() {
+        Some("glb") => false,
+        Some("gltf") => true,
+        _ => {
+            return Err(Failure::new(format!(
+                "{}: output must be .glb or .gltf",
+                output.display()
+            )));
+        }
+    };
     let data = std::fs::read(input).map_err(|e| Failure::about(input, e))?;
-    let glb = qm::gltf::to_glb(&data, options).map_err(|e| Failure::about(input, e))?;
+    let glb = if json {
+        // A .gltf points at the .qm, by default the input beside it.
+        let uri = options.uri.clone().unwrap_or_else(|| {
+            input
+                .file_name()
+                .map_or("model.qm".into(), |n| n.to_string_lossy().into_owned())
+        });
+        qm::gltf::to_gltf(&data, &uri, options)
+    } else {
+        qm::gltf::to_glb(&data, options)
+    }
+    .map_err(|e| Failure::about(input, e))?;
     write_atomic(&output, &glb.bytes)?;
     if !quiet {
         eprintln!(
@@ -635,10 +652,14 @@ fn gltf(
             glb.fallback_triangles,
             glb.fallback_bytes,
             glb.fallback_psnr_db,
-            options
-                .uri
-                .as_ref()
-                .map_or("embedded".to_string(), |u| format!("at {u}")),
+            if json {
+                "beside it".to_string()
+            } else {
+                options
+                    .uri
+                    .as_ref()
+                    .map_or("embedded".to_string(), |u| format!("at {u}"))
+            },
             glb.levels.len(),
         );
     }

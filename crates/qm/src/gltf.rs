@@ -66,11 +66,12 @@ impl GltfOptions {
     }
 }
 
-/// A GLB written by [`to_glb`], with what went into it.
+/// A GLB written by [`to_glb`] (or glTF JSON by [`to_gltf`]), with what
+/// went into it.
 #[derive(Clone, Debug)]
 #[non_exhaustive]
 pub struct Glb {
-    /// The `.glb` file.
+    /// The `.glb` file (or the `.gltf` text).
     pub bytes: Vec<u8>,
     /// The prefix the fallback was decoded from.
     pub fallback_bytes: usize,
@@ -91,6 +92,27 @@ pub struct Glb {
 /// Writes the whole `.qm` file `qm` as a GLB with a fallback and the
 /// extension `QM_progressive_mesh`.
 pub fn to_glb(qm: &[u8], options: &GltfOptions) -> Result<Glb> {
+    let (document, bin, mut glb) = build(qm, options)?;
+    glb.bytes = glb_container(&document, &bin);
+    Ok(glb)
+}
+
+/// Writes the whole `.qm` file `qm` as glTF JSON (`.gltf`) whose extension
+/// points at `uri` (the `.qm` beside it), the fallback's buffer inlined as
+/// a base64 data URI so that the `.gltf` is one file.
+pub fn to_gltf(qm: &[u8], uri: &str, options: &GltfOptions) -> Result<Glb> {
+    use base64::Engine as _;
+    let options = options.clone().with_uri(Some(uri.to_string()));
+    let (mut document, bin, mut glb) = build(qm, &options)?;
+    let data = base64::engine::general_purpose::STANDARD.encode(&bin);
+    document["buffers"][0]["uri"] = json!(format!("data:application/octet-stream;base64,{data}"));
+    glb.bytes = serde_json::to_vec_pretty(&document).expect("JSON values serialize");
+    Ok(glb)
+}
+
+/// The glTF document, its binary buffer, and what went into them (the
+/// [`Glb`]'s bytes still empty).
+fn build(qm: &[u8], options: &GltfOptions) -> Result<(Value, Vec<u8>, Glb)> {
     let levels = crate::prefix_table(qm, &DecodeOptions::DEFAULT)?;
     let mut decoder = StreamDecoder::new(DecodeOptions::DEFAULT);
     decoder.push(qm)?;
@@ -205,8 +227,8 @@ pub fn to_glb(qm: &[u8], options: &GltfOptions) -> Result<Glb> {
         "bufferViews": bin.views,
         "buffers": [{ "byteLength": bin.data.len() }],
     });
-    Ok(Glb {
-        bytes: glb(&document, &bin.data),
+    let glb = Glb {
+        bytes: Vec::new(),
         fallback_bytes: prefix,
         fallback_level: level,
         fallback_vertices: vertex_count,
@@ -214,7 +236,8 @@ pub fn to_glb(qm: &[u8], options: &GltfOptions) -> Result<Glb> {
         fallback_error: mesh.error(),
         fallback_psnr_db: mesh.psnr_db(),
         levels,
-    })
+    };
+    Ok((document, bin.data, glb))
 }
 
 const FLOAT: u32 = 5126;
@@ -268,7 +291,7 @@ fn bounds(positions: &[f32]) -> ([f32; 3], [f32; 3]) {
 
 /// The GLB container: a 12-byte header, the JSON chunk padded with spaces,
 /// the binary chunk padded with zeros.
-fn glb(document: &Value, bin: &[u8]) -> Vec<u8> {
+fn glb_container(document: &Value, bin: &[u8]) -> Vec<u8> {
     let mut text = serde_json::to_vec(document).expect("JSON values serialize");
     text.resize(text.len().next_multiple_of(4), b' ');
     let total = 12 + 8 + text.len() + 8 + bin.len();
@@ -363,5 +386,35 @@ mod tests {
             json!({ "bytes": qm.len() / 2, "level": 1 })
         );
         assert!(to_glb(&qm[..20], &GltfOptions::default()).is_err());
+    }
+
+    #[test]
+    fn gltf_json_points_at_the_file_and_inlines_the_fallback() {
+        use base64::Engine as _;
+        let qm = compress(&bumpy_sphere(3), &EncodeOptions::DEFAULT)
+            .unwrap()
+            .bytes;
+        let text = to_gltf(&qm, "sphere.qm", &GltfOptions::default()).unwrap();
+        let json: Value = serde_json::from_slice(&text.bytes).unwrap();
+        let ext = &json["meshes"][0]["primitives"][0]["extensions"][EXTENSION];
+        assert_eq!(ext["uri"], "sphere.qm");
+        let uri = json["buffers"][0]["uri"].as_str().unwrap();
+        let data = uri
+            .strip_prefix("data:application/octet-stream;base64,")
+            .unwrap();
+        let bin = base64::engine::general_purpose::STANDARD
+            .decode(data)
+            .unwrap();
+        assert_eq!(json["buffers"][0]["byteLength"], bin.len());
+        let glb = to_glb(
+            &qm,
+            &GltfOptions::default().with_uri(Some("sphere.qm".into())),
+        )
+        .unwrap();
+        assert_eq!(
+            chunks(&glb.bytes).1,
+            &bin[..],
+            "the same buffer as the GLB's"
+        );
     }
 }

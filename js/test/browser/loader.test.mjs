@@ -257,9 +257,10 @@ async function gltf(name, extra) {
   const file = path.join(www, name);
   execFileSync(bins.qm, ['gltf', spot.file, '-o', file, '--quiet', ...extra]);
   const bytes = new Uint8Array(fs.readFileSync(file));
-  const report = await validator.validateBytes(bytes, {
-    externalResourceFunction: (uri) => Promise.resolve(new Uint8Array(fs.readFileSync(path.join(www, uri)))),
-  });
+  const external = { externalResourceFunction: (uri) => Promise.resolve(new Uint8Array(fs.readFileSync(path.join(www, uri)))) };
+  const report = name.endsWith('.gltf')
+    ? await validator.validateString(new TextDecoder().decode(bytes), external)
+    : await validator.validateBytes(bytes, external);
   assert.equal(report.issues.numErrors + report.issues.numWarnings, 0, `${name}: ${JSON.stringify(report.issues.messages)}`);
   return bytes;
 }
@@ -270,13 +271,14 @@ test('qm gltf: fallback with GLTFLoader, streamed with the plugin, the table set
   const fallback = ['--fallback-level', String(level), '--fallback-bytes', String(fallbackBytes)];
   await gltf('spot.glb', fallback);
   await gltf('spot-uri.glb', ['--uri', 'spot-static.qm', ...fallback]);
+  await gltf('spot.gltf', ['--uri', 'spot-static.qm', ...fallback]);
   await page(fast);
   const plain = await b.page.evaluate(() => window.qmTest.gltf('spot.glb'));
   assert.equal(plain.ok, true, JSON.stringify(plain.error));
   assert.ok(plain.fallbackCovered > 0.05, 'the fallback is drawn');
   const n = reference(spot.file, fallbackBytes, level);
   assert.equal(plain.fallback.vertexCount, n.vertices);
-  for (const file of ['spot.glb', 'spot-uri.glb']) {
+  for (const file of ['spot.glb', 'spot-uri.glb', 'spot.gltf']) {
     const streamed = await b.page.evaluate((f) => window.qmTest.gltf(f, { plugin: true, options: { level: 'finest' } }), file);
     assert.equal(streamed.ok, true, `${file}: ${JSON.stringify(streamed.error)}`);
     assert.equal(streamed.fallback.vertexCount, n.vertices);
