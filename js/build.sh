@@ -2,7 +2,7 @@
 # Builds the npm packages qm-decoder and three-qm-loader into js/*/dist and
 # packs them (npm pack) into $CARGO_TARGET_DIR/js/: the qm-wasm crate for
 # wasm32-unknown-unknown (profile qm-js: release at opt-level "s" with LTO
-# and one codegen unit: 70 KB gzipped against 79 KB at opt-level 3, and
+# and one codegen unit: 73 KB gzipped against 79 KB at opt-level 3, and
 # about 8% slower; see docs/js.md), its bindings (wasm-bindgen --target web), wasm-opt -O3
 # (npm binaryen; it also drops the debug and producers sections), then
 # build.mjs (inlined wasm, the worker

@@ -339,6 +339,32 @@ fn levels_table_level_choice_goals_and_gltf() {
 }
 
 #[test]
+fn outputs_and_budgets_are_checked_before_the_work() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(asset("quad/cc_cube.obj"), dir.path().join("cube.obj")).unwrap();
+    let out = qm(
+        &["compress", "cube.obj", "-o", "missing/cube.qm"],
+        dir.path(),
+    );
+    assert_fails_cleanly(
+        &out,
+        "missing/cube.qm",
+        "the output folder missing does not exist",
+    );
+    let out = qm(
+        &["compress", "cube.obj", "--bytes", "50", "--quiet"],
+        dir.path(),
+    );
+    assert_fails_cleanly(&out, "cube.obj", "a byte budget of 50 bytes is below the");
+    assert!(
+        stderr(&out).contains("bytes of the header and base mesh"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!dir.path().join("cube.qm").exists());
+}
+
+#[test]
 fn bad_input_fails_with_one_line_and_exit_1() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
@@ -470,7 +496,7 @@ fn memory_limits_refuse_work_before_it_starts() {
     assert_fails_cleanly(
         &out,
         "spot.obj",
-        "above the limit of 1024 MiB (--max-memory raises it)",
+        "above the limit of 1 GiB (--max-memory raises it)",
     );
     assert!(!dir.path().join("spot.qm").exists());
     // The input alone: spot's 5,856 triangles need 14 MiB.
@@ -486,7 +512,7 @@ fn memory_limits_refuse_work_before_it_starts() {
         &["decompress", "cube.qm", "--max-memory", "512K", "--quiet"],
         dir.path(),
     );
-    assert_fails_cleanly(&out, "cube.qm", "samples, above the limit of 1 MiB");
+    assert_fails_cleanly(&out, "cube.qm", "samples, above the limit of 512 KiB");
     let out = qm(
         &["decompress", "cube.qm", "--max-memory", "2M", "--quiet"],
         dir.path(),

@@ -213,3 +213,39 @@ fn a_faceted_input_is_sent_as_itself() {
     );
     assert!(remeshed.bytes.len() > encoded.bytes.len());
 }
+
+/// Meshes in any unit (light years, nanometres) code alike: the remesh,
+/// the stream and the measured distance are those of the same shape near
+/// unit size, scaled. From about 1e155 up a tetrahedron used to panic in
+/// the remesher, and from 1e77 up or 1e-78 down it was refused.
+#[test]
+fn every_unit_codes_alike() {
+    let tetrahedron = |s: f64| {
+        let p = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z]
+            .map(|p| p * s)
+            .to_vec();
+        PolyMesh::from_faces(p, &[[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2]])
+    };
+    let options = DistanceOptions::DEFAULT.with_samples(20_000);
+    let code = |s: f64| {
+        let input = tetrahedron(s);
+        let encoded = qm::encode(&input, &qm::Options::default()).unwrap();
+        let decoded = qm::decode(&encoded.bytes, &qm::DecodeOptions::default()).unwrap();
+        let d = distance(&input, &decoded.mesh, &options).unwrap();
+        assert!(d.rms.is_finite() && d.rms > 0.0, "{s}: rms {}", d.rms);
+        (encoded.bytes, d.psnr_db)
+    };
+    let (unit, psnr) = code(1.0);
+    // Powers of two: the same work exactly, so the same stream but for
+    // the header's origin and step.
+    for k in [-1000, -300, -100, 100, 300, 1000] {
+        let (bytes, p) = code(2f64.powi(k));
+        assert_eq!(bytes.len(), unit.len(), "2^{k}");
+        assert_eq!(bytes[bytes.len() - 40..], unit[unit.len() - 40..], "2^{k}");
+        assert!((p - psnr).abs() < 0.01, "2^{k}: {p} dB against {psnr}");
+    }
+    for s in [1e-300, 1e-80, 1e80, 1e160, 1e300] {
+        let (_, p) = code(s);
+        assert!((p - psnr).abs() < 0.5, "{s}: {p} dB against {psnr}");
+    }
+}

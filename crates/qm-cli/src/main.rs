@@ -13,7 +13,7 @@ use std::process::ExitCode;
 use clap::{Args, Parser, Subcommand};
 use qm::codec::container;
 
-use output::{Failure, Progress, default_output, refuse_overwriting_input, write_atomic};
+use output::{Failure, Progress, check_output, default_output, write_atomic};
 
 #[derive(Parser)]
 #[command(
@@ -269,6 +269,12 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // Interrupt, terminate, hang-up: no half-written output left behind.
+    let _ = ctrlc::set_handler(|| {
+        qm::io::remove_partial_outputs();
+        eprintln!("interrupted");
+        std::process::exit(130);
+    });
     let result = match cli.command {
         Command::Compress {
             input,
@@ -455,7 +461,7 @@ fn compress(
     quiet: bool,
 ) -> Result<(), Failure> {
     let output = output.unwrap_or_else(|| default_output(input, "qm"));
-    refuse_overwriting_input(input, &output)?;
+    check_output(input, &output)?;
     let progress = Progress::new(quiet);
     progress.step("reading mesh");
     let mesh = qm::read_mesh(input).map_err(|e| Failure::about(input, e))?;
@@ -503,7 +509,7 @@ fn remesh(
             .map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
         input.with_file_name(format!("{stem}-remeshed.obj"))
     });
-    refuse_overwriting_input(input, &output)?;
+    check_output(input, &output)?;
     let progress = Progress::new(quiet);
     progress.step("reading mesh");
     let mesh = qm::read_mesh(input).map_err(|e| Failure::about(input, e))?;
@@ -557,7 +563,7 @@ fn decompress(
     quiet: bool,
 ) -> Result<(), Failure> {
     let output = output.unwrap_or_else(|| default_output(input, "obj"));
-    refuse_overwriting_input(input, &output)?;
+    check_output(input, &output)?;
     match qm::io::Format::from_path(&output) {
         Some(qm::io::Format::Obj | qm::io::Format::Ply) => {}
         _ => {
@@ -613,7 +619,7 @@ fn gltf(
     quiet: bool,
 ) -> Result<(), Failure> {
     let output = output.unwrap_or_else(|| default_output(input, "glb"));
-    refuse_overwriting_input(input, &output)?;
+    check_output(input, &output)?;
     let ext = output
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase());

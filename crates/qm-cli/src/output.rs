@@ -76,8 +76,10 @@ pub fn default_output(input: &Path, extension: &str) -> PathBuf {
     input.with_extension(extension)
 }
 
-/// Refuses an output path that names the input file.
-pub fn refuse_overwriting_input(input: &Path, output: &Path) -> Result<(), Failure> {
+/// Checks an output path before any work: it must not name the input
+/// file, and its folder must exist (else the error would come only after
+/// the work, naming a temporary file).
+pub fn check_output(input: &Path, output: &Path) -> Result<(), Failure> {
     let same = match (input.canonicalize(), output.canonicalize()) {
         (Ok(a), Ok(b)) => a == b,
         _ => input == output,
@@ -86,6 +88,17 @@ pub fn refuse_overwriting_input(input: &Path, output: &Path) -> Result<(), Failu
         return Err(Failure(format!(
             "{}: output would overwrite the input",
             output.display()
+        )));
+    }
+    let folder = match output.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => dir,
+        _ => Path::new("."),
+    };
+    if !folder.is_dir() {
+        return Err(Failure(format!(
+            "{}: the output folder {} does not exist",
+            output.display(),
+            folder.display()
         )));
     }
     Ok(())

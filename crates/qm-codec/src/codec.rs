@@ -339,10 +339,9 @@ pub fn compress_probed(
     if let Some(max) = options.max_bytes {
         let prefix = compressed.header_bytes + compressed.base_bytes;
         if max < prefix {
-            return Err(Error::Limit {
-                what: "byte budget",
-                value: max as u64,
-                max: prefix as u64,
+            return Err(Error::Budget {
+                budget: max as u64,
+                needed: prefix as u64,
             });
         }
         // The kept holds all end by `stream_end`: the header they shrank

@@ -65,11 +65,23 @@ pub enum Error {
         /// The limit.
         max: u64,
     },
+    /// A byte budget below the bytes of the header and base mesh, which
+    /// must be sent whole.
+    #[error(
+        "a byte budget of {budget} bytes is below the {needed} bytes of the header and base \
+         mesh, the least a file can have"
+    )]
+    Budget {
+        /// The budget asked for.
+        budget: u64,
+        /// Bytes of the header and base mesh.
+        needed: u64,
+    },
     /// Decoding (or encoding) would take more memory than the limit allows.
     #[error(
-        "needs about {} MiB of memory for {samples} samples, above the limit of {} MiB",
-        needed.div_ceil(1 << 20),
-        limit.div_ceil(1 << 20)
+        "needs about {} of memory for {samples} samples, above the limit of {}",
+        qm_lift::ByteSize(*needed),
+        qm_lift::ByteSize(*limit)
     )]
     Memory {
         /// Bytes the work would take, estimated.

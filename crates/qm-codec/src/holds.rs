@@ -72,6 +72,10 @@ pub const LONG_STREAM: usize = 1 << 16;
 #[derive(Clone, Debug)]
 pub struct Probes {
     points: Vec<Probe>,
+    /// The power of two the points are scaled by ([`qm_lift::unit_scale`]
+    /// of the mesh), so that squared distances of meshes in far units
+    /// neither overflow nor vanish.
+    scale: f64,
     /// Samples of the mesh the probes were built on.
     samples: usize,
 }
@@ -82,7 +86,7 @@ struct Probe {
     corners: [u32; 3],
     /// The point's barycentric coordinates in it.
     weights: [f64; 3],
-    /// The point's foot on the input surface (world coordinates).
+    /// The point's foot on the input surface (scaled world coordinates).
     foot: DVec3,
     /// Unit normal of the triangle.
     normal: DVec3,
@@ -99,7 +103,8 @@ impl Probes {
         let quads = layout.quads(layout.level());
         let per_quad = 2 * WEIGHTS.len();
         let stride = (per_quad * quads.len()).div_ceil(MAX_PROBES).max(1);
-        let p = |s: u32| mesh.positions()[s as usize];
+        let scale = qm_lift::unit_scale(mesh.positions());
+        let p = |s: u32| mesh.positions()[s as usize] * scale;
         let foot = &foot;
         let points = (quads.par_iter().step_by(stride))
             .flat_map_iter(|&[a, b, c, d]| {
@@ -112,7 +117,7 @@ impl Probes {
                         Probe {
                             corners,
                             weights,
-                            foot: foot(at),
+                            foot: foot(at / scale) * scale,
                             normal: cross.normalize_or_zero(),
                             weight,
                         }
@@ -122,6 +127,7 @@ impl Probes {
             .collect();
         Probes {
             points,
+            scale,
             samples: layout.sample_count(),
         }
     }
@@ -139,9 +145,9 @@ impl Probes {
     }
 
     /// Area-weighted mean squared distance along the normal of the
-    /// quantized `values` from the feet.
+    /// quantized `values` from the feet, at the probes' scale.
     fn error(&self, quantizer: &Quantizer, values: &[Coord]) -> f64 {
-        let at = |s: u32| quantizer.dequantize(values[s as usize].map(f64::from));
+        let at = |s: u32| quantizer.dequantize(values[s as usize].map(f64::from)) * self.scale;
         let (sum, weight) = self.points.iter().fold((0.0, 0.0), |(sum, weight), p| {
             let [a, b, c] = p.corners.map(at);
             let [u, v, w] = p.weights;

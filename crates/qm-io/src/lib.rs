@@ -185,12 +185,48 @@ pub fn write_atomic(
         builder.permissions(permissions);
     }
     let mut temp = builder.tempfile_in(dir)?;
+    let _pending = Pending::register(temp.path());
     write(temp.as_file_mut())?;
     // Without the sync a crash soon after the rename could leave an empty file
     // where the old one was.
     temp.as_file().sync_all()?;
     temp.persist(path).map_err(|e| e.error)?;
     Ok(())
+}
+
+/// The temporary files of [`write_atomic`]s in progress.
+static PENDING: std::sync::Mutex<Vec<std::path::PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// One temporary file listed in [`PENDING`] while it is written.
+struct Pending(std::path::PathBuf);
+
+impl Pending {
+    fn register(path: &Path) -> Self {
+        if let Ok(mut list) = PENDING.lock() {
+            list.push(path.to_path_buf());
+        }
+        Pending(path.to_path_buf())
+    }
+}
+
+impl Drop for Pending {
+    fn drop(&mut self) {
+        if let Ok(mut list) = PENDING.lock() {
+            list.retain(|p| p != &self.0);
+        }
+    }
+}
+
+/// Removes the temporary files of the [`write_atomic`]s in progress: for a
+/// program's interrupt and terminate handlers, which end the process
+/// without running destructors. (A hard kill leaves them: hidden
+/// `.qm-*.tmp` files beside the output.)
+pub fn remove_partial_outputs() {
+    if let Ok(list) = PENDING.lock() {
+        for path in list.iter() {
+            let _ = fs::remove_file(path);
+        }
+    }
 }
 
 /// Writes `mesh` as OBJ or PLY to `w`.
@@ -385,6 +421,31 @@ fn parse_f64(token: &str) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_interrupted_write_leaves_no_temporary_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("out.qm");
+        let names = || -> Vec<String> {
+            let entries = fs::read_dir(dir.path()).unwrap();
+            entries
+                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect()
+        };
+        let result = write_atomic(&out, |file| {
+            file.write_all(b"half")?;
+            assert_eq!(names().len(), 1, "the temporary file");
+            // What the interrupt handler does.
+            remove_partial_outputs();
+            assert_eq!(names(), Vec::<String>::new());
+            Ok(())
+        });
+        assert!(result.is_err(), "nothing to rename");
+        assert_eq!(names(), Vec::<String>::new());
+        write_atomic(&out, |file| file.write_all(b"whole")).unwrap();
+        remove_partial_outputs();
+        assert_eq!(fs::read(&out).unwrap(), b"whole", "finished files stay");
+    }
 
     fn quad_and_triangle() -> PolyMesh {
         let positions = vec![

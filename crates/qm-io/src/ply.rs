@@ -170,6 +170,22 @@ fn role(def: &ElementDef) -> Role {
 /// of vertices.
 fn check_header(header: &Header, header_text: &[u8], body_bytes: usize) -> Result<usize, Failure> {
     let ascii = header.encoding == Encoding::Ascii;
+    // The header parser keeps one definition per name; a second one would
+    // leave the body read against the wrong layout.
+    let mut declared: Vec<(&str, usize)> = Vec::new();
+    for (number, line) in numbered_lines(header_text) {
+        let mut words = std::str::from_utf8(line)
+            .unwrap_or("")
+            .split_ascii_whitespace();
+        if let (Some("element"), Some(name)) = (words.next(), words.next()) {
+            if let Some(&(_, first)) = declared.iter().find(|(n, _)| *n == name) {
+                let what =
+                    format!("PLY element '{name}' is declared twice (lines {first} and {number})");
+                return Err((Some(number), Problem::Syntax(what)));
+            }
+            declared.push((name, number));
+        }
+    }
     let mut needed = 0u64;
     let mut vertices = None;
     for def in header.elements.values() {
@@ -586,6 +602,23 @@ mod tests {
             b"0 0 0 9\n1 0 0 9\n1 1 0 9\n0 1 0 9\n0.5 0.5 1 9\n4 0 1 2 3 0.5\n3 2 3 4 0.5\n",
         );
         assert_eq!(read(&bytes).unwrap(), mixed_expected());
+    }
+
+    #[test]
+    fn an_element_declared_twice_is_refused_naming_both_lines() {
+        let header = "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+            element vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+            element face 1\nproperty list uchar int vertex_indices\n";
+        let bytes = ply(
+            "ascii",
+            header,
+            b"0 0 0\n1 0 0\n0 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+        );
+        let message = read(&bytes).unwrap_err().to_string();
+        assert!(
+            message.contains("'vertex' is declared twice (lines 3 and 7)"),
+            "{message}"
+        );
     }
 
     #[test]

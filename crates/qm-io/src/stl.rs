@@ -6,7 +6,7 @@
 
 use std::io::{self, Cursor};
 
-use super::{MeshBuilder, MeshError, Problem, first_line_text};
+use super::{MeshBuilder, MeshError, Problem};
 use crate::PolyMesh;
 use glam::DVec3;
 
@@ -29,19 +29,19 @@ pub(super) fn is_binary(bytes: &[u8]) -> bool {
 
 pub(super) fn read(bytes: &[u8], file: &str) -> Result<PolyMesh, MeshError> {
     let fail = |problem| MeshError::malformed(file, None, problem);
-    let ascii = !is_binary(bytes)
-        && first_line_text(bytes).is_some_and(|line| line.trim_start().starts_with("solid"));
+    // The solid's name may be in any encoding (Latin-1 names are common):
+    // only the keyword is looked at.
+    let first_line = bytes.split(|&b| b == b'\n').next().unwrap_or_default();
+    let ascii = !is_binary(bytes) && first_line.trim_ascii_start().starts_with(b"solid");
     let patched;
     let input = if ascii {
-        // stl_io wants the first line to start with exactly "solid ", which a
-        // bare "solid" or leading blanks miss; the solid's name is not needed.
-        if bytes.starts_with(b"solid ") {
+        // stl_io wants the first line to be exactly "solid " and a name in
+        // UTF-8, which a bare "solid", leading blanks or a Latin-1 name
+        // miss; the name is not needed.
+        if bytes.starts_with(b"solid ") && std::str::from_utf8(first_line).is_ok() {
             bytes
         } else {
-            let body = bytes
-                .iter()
-                .position(|&b| b == b'\n')
-                .map_or(&[][..], |k| &bytes[k..]);
+            let body = &bytes[first_line.len()..];
             patched = [&b"solid "[..], body].concat();
             &patched
         }
@@ -138,6 +138,14 @@ mod tests {
             read_mesh_bytes(bare.as_bytes(), Format::Stl, "a.stl").unwrap(),
             mesh
         );
+    }
+
+    #[test]
+    fn an_ascii_name_in_latin_1_is_still_ascii() {
+        let text = ASCII.replacen("solid square", "solid \u{e9}t\u{e9}", 1);
+        let latin1: Vec<u8> = text.chars().map(|c| c as u32 as u8).collect();
+        let mesh = read(&latin1, "latin1.stl").unwrap();
+        assert_eq!(mesh.face_count(), 2);
     }
 
     #[test]

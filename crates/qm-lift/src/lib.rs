@@ -23,7 +23,10 @@ pub use base::{BaseMesh, Edge, NO_FACE, Side};
 pub use error::{Error, Result};
 pub use layout::{Layout, MAX_LEVEL, MAX_SAMPLES, Numbering, Place, side_coords, side_point};
 pub use lifting::{Coord, Lifting, UpdateRule};
-pub use mesh::{DEFAULT_BITS, MAX_BITS, MIN_BITS, Quantizer, SemiRegularMesh, bounding_box};
+pub use mesh::{
+    ByteSize, DEFAULT_BITS, MAX_BITS, MIN_BITS, Quantizer, SemiRegularMesh, bounding_box,
+    unit_scale,
+};
 pub use split::{TriangleSplit, coding_order, split_triangles, unsplit};
 
 pub use glam;

@@ -157,9 +157,88 @@ pub fn bounding_box(points: &[DVec3]) -> (DVec3, DVec3) {
         })
 }
 
+/// A number of bytes for people: `512 B`, `1.5 KiB`, `230 MiB`, `3.3 GiB`
+/// (powers of 1024), for the memory limits of every layer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ByteSize(pub u64);
+
+impl std::fmt::Display for ByteSize {
+    // Integers only: float formatting would add 9 KB to the browser
+    // decoder's gzipped wasm.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
+        let bytes = u128::from(self.0);
+        let mut unit = 0;
+        while unit + 1 < UNITS.len() && bytes >= 1024u128.pow(unit as u32 + 1) {
+            unit += 1;
+        }
+        let size = 1024u128.pow(unit as u32);
+        // Tenths, rounded half up.
+        let tenths = (bytes * 10 + size / 2) / size;
+        if unit == 0 || tenths >= 1000 || tenths % 10 == 0 {
+            write!(f, "{} {}", (tenths + 5) / 10, UNITS[unit])
+        } else {
+            write!(f, "{}.{} {}", tenths / 10, tenths % 10, UNITS[unit])
+        }
+    }
+}
+
+/// The extents (as powers of two) within which meshes are worked on as
+/// they are: every ordinary unit. Outside, squared lengths and areas can overflow or fall
+/// to subnormals and zero (at 1e160 a remesh grid's cell count overflowed;
+/// at 1e-80 no face had a positive area).
+const UNSCALED_LOG2: std::ops::RangeInclusive<f64> = -20.0..=20.0;
+
+/// The power of two that brings the largest extent of the bounding box of
+/// `points` near 1, or 1 when it is within 2^-20 to 2^20 already (or the
+/// box is empty, a point or not finite). The remesher, the distance and
+/// the encoder's holds work on meshes of far units at that scale:
+/// multiplying by a power of two is exact both ways, unless it underflows.
+pub fn unit_scale(points: &[DVec3]) -> f64 {
+    let (lo, hi) = bounding_box(points);
+    // Halves: the extent of a box over the whole f64 range overflows.
+    let half = (hi * 0.5 - lo * 0.5).max_element();
+    if !half.is_finite() || half <= 0.0 {
+        return 1.0;
+    }
+    let log2 = half.log2() + 1.0;
+    if UNSCALED_LOG2.contains(&log2) {
+        return 1.0;
+    }
+    (-log2.round()).clamp(-1020.0, 1020.0).exp2()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn byte_sizes_read_as_people_write_them() {
+        let text = |n| ByteSize(n).to_string();
+        assert_eq!(text(1), "1 B");
+        assert_eq!(text(1023), "1023 B");
+        assert_eq!(text(1536), "1.5 KiB");
+        assert_eq!(text(230 << 20), "230 MiB");
+        assert_eq!(text(1 << 30), "1 GiB");
+        assert_eq!(text(3_330_000_000), "3.1 GiB");
+    }
+
+    #[test]
+    fn unit_scales_are_powers_of_two_for_far_units_only() {
+        let box_of = |s: f64| [DVec3::ZERO, DVec3::new(s, s / 2.0, 0.0)];
+        assert_eq!(unit_scale(&box_of(1.0)), 1.0);
+        assert_eq!(unit_scale(&box_of(1e5)), 1.0);
+        assert_eq!(unit_scale(&box_of(1e-6)), 1.0);
+        assert_eq!(unit_scale(&box_of(2f64.powi(300))), 2f64.powi(-300));
+        assert_eq!(unit_scale(&box_of(2f64.powi(-300))), 2f64.powi(300));
+        assert_eq!(unit_scale(&box_of(1e307)), 2f64.powi(-1020));
+        assert_eq!(
+            unit_scale(&[DVec3::splat(-1e308), DVec3::splat(1e308)]),
+            2f64.powi(-1020)
+        );
+        assert_eq!(unit_scale(&[]), 1.0);
+        assert_eq!(unit_scale(&[DVec3::ZERO, DVec3::X * f64::NAN]), 1.0);
+    }
 
     #[test]
     fn quantization_spans_the_longest_axis() {

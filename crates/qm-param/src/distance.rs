@@ -142,6 +142,42 @@ pub struct DistanceReport {
 /// Fails if either mesh has no face of positive area, a face refers to a
 /// missing vertex or a used vertex is not finite, or `options.samples` is 0.
 pub fn distance(a: &PolyMesh, b: &PolyMesh, options: &DistanceOptions) -> Result<DistanceReport> {
+    // Meshes in far units are measured at a power-of-two scale of A's box
+    // (exact), where squared lengths and areas neither overflow nor vanish.
+    let scale = qm_lift::unit_scale(&a.positions);
+    if scale == 1.0 {
+        return distance_at_scale(a, b, options);
+    }
+    let r = distance_at_scale(&scaled(a, scale), &scaled(b, scale), options)?;
+    let back = |s: OneSided| OneSided {
+        rms: s.rms / scale,
+        mean: s.mean / scale,
+        max: s.max / scale,
+        ..s
+    };
+    Ok(DistanceReport {
+        rms: r.rms / scale,
+        mean: r.mean / scale,
+        hausdorff: r.hausdorff / scale,
+        diag: r.diag / scale,
+        a_to_b: back(r.a_to_b),
+        b_to_a: back(r.b_to_a),
+        ..r
+    })
+}
+
+/// `mesh` with its positions multiplied by `scale`.
+pub(crate) fn scaled(mesh: &PolyMesh, scale: f64) -> PolyMesh {
+    let mut mesh = mesh.clone();
+    mesh.positions.iter_mut().for_each(|p| *p *= scale);
+    mesh
+}
+
+fn distance_at_scale(
+    a: &PolyMesh,
+    b: &PolyMesh,
+    options: &DistanceOptions,
+) -> Result<DistanceReport> {
     if options.samples == 0 {
         return Err(Error::NoSamples);
     }
@@ -193,23 +229,34 @@ pub fn distance(a: &PolyMesh, b: &PolyMesh, options: &DistanceOptions) -> Result
 pub struct Surface {
     mesh: Closest,
     origin: DVec3,
+    /// The power of two the mesh is held at.
+    scale: f64,
 }
 
 impl Surface {
     /// The surface of `mesh` (faces of positive area, finite vertices, as
-    /// [`distance`] asks of mesh A).
+    /// [`distance`] asks of mesh A), kept at its [`qm_lift::unit_scale`].
     pub fn new(mesh: &PolyMesh) -> Result<Self> {
+        let scale = qm_lift::unit_scale(&mesh.positions);
+        let copy;
+        let mesh = if scale == 1.0 {
+            mesh
+        } else {
+            copy = scaled(mesh, scale);
+            &copy
+        };
         let triangles = Triangles::new(mesh, Side::A)?;
         let origin = triangles.bbox_center();
         Ok(Surface {
             mesh: Closest::new(&triangles, origin),
             origin,
+            scale,
         })
     }
 
     /// The point of the surface closest to `p`.
     pub fn closest(&self, p: DVec3) -> DVec3 {
-        self.mesh.project(p - self.origin) + self.origin
+        (self.mesh.project(p * self.scale - self.origin) + self.origin) / self.scale
     }
 }
 

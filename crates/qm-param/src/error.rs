@@ -75,11 +75,11 @@ pub enum Error {
     /// Remeshing and encoding would take more memory than the limit
     /// ([`crate::remesh::encode_memory`]).
     #[error(
-        "remeshing and encoding needs about {} MiB of memory ({triangles} input triangles{}), \
-         above the limit of {} MiB",
-        needed.div_ceil(1 << 20),
+        "remeshing and encoding needs about {} of memory ({triangles} input triangles{}), \
+         above the limit of {}",
+        qm_lift::ByteSize(*needed),
         if *samples > 0 { format!(", {samples} samples") } else { String::new() },
-        limit.div_ceil(1 << 20)
+        qm_lift::ByteSize(*limit)
     )]
     Memory {
         /// Bytes the work would take, estimated.

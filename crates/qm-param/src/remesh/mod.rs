@@ -287,7 +287,27 @@ pub struct NormalReport {
 /// least [`CLEARLY_BETTER_DB`] worse, and the report says why
 /// ([`RemeshReport::fallback`]); a small input whose remesh is not faithful
 /// is taken as its own triangles ([`BaseDomain::Input`]).
+///
+/// A mesh of any unit is remeshed alike: one whose extent is far from 1
+/// (light years, nanometres) is scaled by a power of two
+/// ([`qm_lift::unit_scale`],
+/// exact both ways) for the work and scaled back.
 pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
+    let scale = qm_lift::unit_scale(&mesh.positions);
+    if scale == 1.0 {
+        return remesh_at_scale(mesh, options);
+    }
+    let scaled = crate::distance::scaled(mesh, scale);
+    let Remeshed { mesh, report } = remesh_at_scale(&scaled, options)?;
+    let (layout, positions) = mesh.into_parts();
+    let positions = positions.into_iter().map(|p| p / scale).collect();
+    Ok(Remeshed {
+        mesh: SemiRegularMesh::new(layout, positions)?,
+        report,
+    })
+}
+
+fn remesh_at_scale(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     let input_triangles = mesh.faces().map(|f| f.len().saturating_sub(2) as u64).sum();
     check_memory(input_triangles, 0, options.max_memory)?;
     match options.domain {
