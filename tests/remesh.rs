@@ -249,3 +249,41 @@ fn every_unit_codes_alike() {
         assert!((p - psnr).abs() < 0.5, "{s}: {p} dB against {psnr}");
     }
 }
+
+/// A hub of high valence (the fan caps of a CAD cylinder, a capped hole,
+/// an n-gon) remeshes as any other vertex: faithfully, and in time that
+/// `cargo xtask valence` shows near-linear (a hub of 500 took 170 s).
+#[test]
+fn high_valence_hubs_remesh() {
+    let ring = |n: u32, z: f64| -> Vec<DVec3> {
+        (0..n)
+            .map(|i| {
+                let a = std::f64::consts::TAU * f64::from(i) / f64::from(n);
+                DVec3::new(a.cos(), a.sin(), z)
+            })
+            .collect()
+    };
+    let n = 300;
+    let mut positions = ring(n, 0.0);
+    positions.extend(ring(n, 2.0));
+    positions.extend([DVec3::ZERO, DVec3::new(0.0, 0.0, 2.0)]);
+    let (low, high) = (2 * n, 2 * n + 1);
+    let mut faces = Vec::new();
+    for i in 0..n {
+        let j = (i + 1) % n;
+        faces.extend([
+            [i, j, n + j],
+            [i, n + j, n + i],
+            [low, j, i],
+            [high, n + i, n + j],
+        ]);
+    }
+    let cylinder = PolyMesh::from_faces(positions, &faces);
+    let mut polygon = PolyMesh::from_faces::<3>(ring(1000, 0.0), &[]);
+    polygon.push_face(&(0..1000).collect::<Vec<u32>>());
+    for (name, input) in [("cylinder", cylinder), ("1000-gon", polygon)] {
+        let out = remeshed(&input);
+        let d = distance(&input, &out, &DistanceOptions::DEFAULT.with_samples(20_000)).unwrap();
+        assert!(d.psnr_db > 60.0, "{name}: {} dB", d.psnr_db);
+    }
+}

@@ -30,6 +30,8 @@
 //! - `stress DIR`: writes four generated meshes of hard topology into `DIR`
 //!   (genus 12, 100 holes, 300 parts, a ragged open height field) and prints
 //!   their topology. See [`stress`].
+//! - `valence [--max N]`: encode time against the valence of one vertex
+//!   (fan-capped cylinders and n-gons of 100 to 10,000). See [`valence`].
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -44,6 +46,7 @@ mod plot;
 mod rd;
 mod remesh_bench;
 mod stress;
+mod valence;
 
 const PASSES: [u32; 6] = [2, 4, 6, 8, 10, 12];
 
@@ -58,6 +61,7 @@ fn main() -> ExitCode {
         Some("budget") => budget::run(&args[1..]),
         Some("corpus") => corpus::run(&args[1..]),
         Some("stress") => stress::run(&args[1..]),
+        Some("valence") => valence::run(&args[1..]),
         _ => Err("usage: cargo xtask pass-table [MESH ...]\n       \
                   cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]\n       \
                   cargo xtask remesh-bench [--level L] [--normal-remesh on|off] [--runs N] [--against XTASK] [MESH ...]\n       \
@@ -65,7 +69,8 @@ fn main() -> ExitCode {
                   cargo xtask details [FILE|DIR ...]\n       \
                   cargo xtask budget [--models FILE|DIR ...] [--db DB ...]\n       \
                   cargo xtask corpus\n       \
-                  cargo xtask stress DIR"
+                  cargo xtask stress DIR\n       \
+                  cargo xtask valence [--max N]"
             .to_string()),
     };
     match result {

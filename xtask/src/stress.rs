@@ -711,7 +711,7 @@ fn l_prism() -> Tris {
 
 /// A closed cylinder of radius 1 and height 2, `n` segments, each cap a fan
 /// around its centre.
-fn cylinder(n: u32) -> Tris {
+pub(crate) fn cylinder(n: u32) -> Tris {
     let mut t = Tris::default();
     for i in 0..n {
         let a = TAU * i as f64 / n as f64;

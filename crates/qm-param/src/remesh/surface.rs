@@ -49,6 +49,10 @@ use crate::{Error, RemeshFailure, Result, TriMesh};
 /// Longest walk (a walk that long ends where it is).
 const WALK: usize = 32;
 
+/// Most triangles a step of a walk tries (around a corner, or the two ends
+/// of an edge); beyond, the closest point comes from the hierarchy.
+const MAX_FAN: usize = 64;
+
 /// Longest reach, in longest sides of the triangle nearest the origin, of
 /// the rays that [`Surface::hit_near`] answers from the triangles around
 /// their origin (longer ones ask the hierarchy).
@@ -300,6 +304,12 @@ impl Surface {
                 ),
                 Feature::Corner(k) => ([fan(k), &[], &[]], NONE),
             };
+            if candidates.iter().map(|c| c.len()).sum::<usize>() > MAX_FAN {
+                // A hub (a fan's, an n-gon's): trying its every triangle
+                // for every point near it made time quadratic in its
+                // valence; the hierarchy answers in logarithmic time.
+                return self.closest(p);
+            }
             let mut best: Option<(u32, DVec3, Feature, f64)> = None;
             for (j, &u) in candidates.into_iter().flatten().enumerate() {
                 // From an inner foot, the triangle across an edge comes
