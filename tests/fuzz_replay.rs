@@ -5,6 +5,8 @@ use std::path::{Path, PathBuf};
 
 use qm::io::{Format, read_mesh_bytes};
 
+#[path = "../fuzz/fuzz_targets/remesh_hub_input.rs"]
+mod remesh_hub_input;
 #[path = "../fuzz/fuzz_targets/remesh_input.rs"]
 mod remesh_input;
 
@@ -28,6 +30,7 @@ fn replay(target: &str, bytes: &[u8]) {
         "off" => format(Format::Off),
         "stl" => format(Format::Stl),
         "remesh" => remesh_input::run(bytes),
+        "remesh_hub" => remesh_hub_input::run(bytes),
         // The round-trip target builds meshes from its bytes; its seeds are
         // replayed by the fuzzer itself.
         _ => {}
@@ -50,7 +53,7 @@ fn files(dir: &Path) -> Vec<PathBuf> {
 #[test]
 fn fuzz_seeds_and_findings_do_not_panic() {
     let mut count = 0;
-    for target in ["decode", "obj", "ply", "off", "stl", "remesh"] {
+    for target in ["decode", "obj", "ply", "off", "stl", "remesh", "remesh_hub"] {
         for path in files(&root().join("fuzz/corpus").join(target)) {
             let bytes = std::fs::read(&path).unwrap();
             let result = std::panic::catch_unwind(|| replay(target, &bytes));

@@ -8,10 +8,12 @@
 //! extra cuts 0 to 2, stretch iterations 1 to 7, 8 or 30 samples a
 //! vertex), so that each path is taken and most runs are quick;
 //! then 3 bytes a vertex, each coordinate `(b >> 4) + (b & 15) * jitter` (so
-//! that small jitters make nearly coincident vertices); the rest: faces,
-//! each a header byte (bit 0: triangle or quad) and then its corners as
-//! bytes modulo the vertex count (so repeated corners, duplicate and
-//! opposite faces, non-manifold fans and many tiny parts all occur), at
+//! that small jitters make nearly coincident vertices), times a unit
+//! `10^(5 (h - 64))` clamped to `10^-320 ..= 10^305` (from light years to
+//! subnormals), `h` the top seven bits of the first face's header byte; the
+//! rest: faces, each a header byte (bit 0: triangle or quad) and then its
+//! corners as bytes modulo the vertex count (so repeated corners, duplicate
+//! and opposite faces, non-manifold fans and many tiny parts all occur), at
 //! most 160 faces.
 
 use qm::lift::glam::DVec3;
@@ -29,7 +31,9 @@ pub fn input(data: &[u8]) -> (qm::PolyMesh, qm::RemeshOptions) {
     let byte = |i: usize| data.get(i).copied().unwrap_or(0);
     let n = 3 + usize::from(byte(0)) % 62;
     let jitter = 10f64.powi(-i32::from(byte(1) % 13));
-    let coordinate = |b: u8| f64::from(b >> 4) + f64::from(b & 15) * jitter;
+    let unit_exponent = (5 * (i32::from(byte(2 + 3 * n) >> 1) - 64)).clamp(-320, 305);
+    let unit = 10f64.powi(unit_exponent);
+    let coordinate = |b: u8| (f64::from(b >> 4) + f64::from(b & 15) * jitter) * unit;
     let positions: Vec<DVec3> = (0..n)
         .map(|v| {
             let at = 2 + 3 * v;
