@@ -524,3 +524,51 @@ fn memory_limits_refuse_work_before_it_starts() {
     );
     assert_eq!(out.status.code(), Some(2), "bad usage");
 }
+
+/// Interrupt and terminate at any moment leave either no output or a whole
+/// one, and never the hidden temporary file of a write in progress.
+#[cfg(unix)]
+#[test]
+fn a_signal_leaves_no_temporary_file() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(asset("spot.obj"), dir.path().join("spot.obj")).unwrap();
+    let out = qm(&["compress", "spot.obj", "--quiet"], dir.path());
+    assert!(out.status.success(), "{}", stderr(&out));
+    for (k, signal) in ["INT", "TERM", "INT", "TERM", "TERM", "INT"]
+        .iter()
+        .enumerate()
+    {
+        let output = format!("out{k}.obj");
+        let mut child = Command::new(env!("CARGO_BIN_EXE_qm"))
+            .args([
+                "decompress",
+                "spot.qm",
+                "--level",
+                "finest",
+                "-o",
+                &output,
+                "--quiet",
+            ])
+            .current_dir(dir.path())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(40 * k as u64 + 20));
+        let _ = Command::new("kill")
+            .args([format!("-{signal}"), child.id().to_string()])
+            .status();
+        let status = child.wait().unwrap();
+        let names: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert!(
+            !names.iter().any(|n| n.starts_with(".qm-")),
+            "{signal} after {k}: {names:?}"
+        );
+        let written = dir.path().join(&output);
+        match status.code() {
+            Some(0) => assert!(qm::read_mesh(&written).is_ok(), "a whole output"),
+            _ => assert!(!written.exists(), "{signal}: {status:?} left {output}"),
+        }
+    }
+}
