@@ -209,9 +209,11 @@ impl Buckets {
     /// The bucket of `p` and then rings around it out to `reach` cells.
     fn near(&self, p: DVec2, reach: usize) -> impl Iterator<Item = &u32> {
         let (nx, ny) = (self.nx as i64, self.ny as i64);
-        let i = ((p.x - self.lo.x) / self.cell).floor() as i64;
-        let j = ((p.y - self.lo.y) / self.cell).floor() as i64;
         let r = reach as i64;
+        // A point far outside (the casts saturate) looks at no bucket, and
+        // `i + r` must not overflow (found by the remesh_hub fuzz target).
+        let i = (((p.x - self.lo.x) / self.cell).floor() as i64).clamp(-r - 1, nx + r);
+        let j = (((p.y - self.lo.y) / self.cell).floor() as i64).clamp(-r - 1, ny + r);
         (j - r..=j + r)
             .flat_map(move |b| (i - r..=i + r).map(move |a| (a, b)))
             .filter(move |&(a, b)| a >= 0 && b >= 0 && a < nx && b < ny)
