@@ -241,6 +241,14 @@ fn truncated_files_decode_and_cuts_in_the_header_say_how_much_is_needed() {
     assert!(!dir.path().join("cut.obj").exists(), "no output on failure");
 }
 
+/// The names of the files in `dir`.
+fn file_names(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect()
+}
+
 /// Vertices of an OBJ written by `qm decompress`.
 fn obj_vertices(path: &Path) -> usize {
     qm::read_mesh(path).unwrap().positions.len()
@@ -557,10 +565,7 @@ fn a_signal_leaves_no_temporary_file() {
             .args([format!("-{signal}"), child.id().to_string()])
             .status();
         let status = child.wait().unwrap();
-        let names: Vec<String> = std::fs::read_dir(dir.path())
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .collect();
+        let names = file_names(dir.path());
         assert!(
             !names.iter().any(|n| n.starts_with(".qm-")),
             "{signal} after {k}: {names:?}"
@@ -571,4 +576,35 @@ fn a_signal_leaves_no_temporary_file() {
             _ => assert!(!written.exists(), "{signal}: {status:?} left {output}"),
         }
     }
+}
+
+/// Past a file-size limit a write fails with one line and no temporary
+/// file, instead of SIGXFSZ ending the process with the file left.
+#[cfg(unix)]
+#[test]
+fn a_file_size_limit_fails_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(asset("spot.obj"), dir.path().join("spot.obj")).unwrap();
+    assert!(
+        qm(&["compress", "spot.obj", "--quiet"], dir.path())
+            .status
+            .success()
+    );
+    let script = format!(
+        "ulimit -f 100; exec '{}' decompress spot.qm --level finest -o big.obj --quiet",
+        env!("CARGO_BIN_EXE_qm")
+    );
+    let out = Command::new("sh")
+        .args(["-c", &script])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert_fails_cleanly(&out, "big.obj", "File too large");
+    let names = file_names(dir.path());
+    assert!(
+        !names
+            .iter()
+            .any(|n| n.starts_with(".qm-") || n == "big.obj"),
+        "{names:?}"
+    );
 }

@@ -275,6 +275,14 @@ fn main() -> ExitCode {
         eprintln!("interrupted");
         std::process::exit(130);
     });
+    // Past a file-size limit (`ulimit -f`) a write then fails with an error
+    // the output's clean-up handles, instead of the signal ending the
+    // process with the temporary file left.
+    #[cfg(unix)]
+    let _ = signal_hook::flag::register(
+        signal_hook::consts::SIGXFSZ,
+        std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false)),
+    );
     let result = match cli.command {
         Command::Compress {
             input,
