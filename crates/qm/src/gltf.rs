@@ -176,7 +176,7 @@ fn build(qm: &[u8], options: &GltfOptions) -> Result<(Value, Vec<u8>, Glb)> {
         "byteLength": qm.len(),
         "streamStart": stream_start,
         "finestLevel": finest,
-        "fallback": { "bytes": prefix, "level": level },
+        "fallback": { "bytes": prefix, "level": level, "error": mesh.error() },
         "levels": levels.iter().map(|r| json!({
             "bytes": r.bytes,
             "passes": r.passes,
@@ -381,10 +381,8 @@ mod tests {
         let ext = &json["meshes"][0]["primitives"][0]["extensions"][EXTENSION];
         assert_eq!(ext["uri"], "sphere.qm");
         assert!(ext.get("bufferView").is_none());
-        assert_eq!(
-            ext["fallback"],
-            json!({ "bytes": qm.len() / 2, "level": 1 })
-        );
+        let fallback = json!({ "bytes": qm.len() / 2, "level": 1, "error": glb.fallback_error });
+        assert_eq!(ext["fallback"], fallback);
         assert!(to_glb(&qm[..20], &GltfOptions::default()).is_err());
     }
 

@@ -303,5 +303,22 @@ test('qm gltf: fallback with GLTFLoader, streamed with the plugin, the table set
   await new Promise((resolve) => setTimeout(resolve, 200));
   const sent = requests(fast.log, '/spot-static.qm');
   assert.deepEqual(sent.map((s) => [s.range, s.status, s.bytes]), [[`0-${row.bytes - 1}`, 206, row.bytes]], fast.log.join('\n'));
+  // A goal the fallback meets already: nothing is fetched.
+  const table = JSON.parse(new TextDecoder().decode(glbJson(fs.readFileSync(path.join(www, 'spot-table.glb')))));
+  const fallbackError = table.meshes[0].primitives[0].extensions.QM_progressive_mesh.fallback.error;
+  assert.ok(fallbackError > 0, `fallback error ${fallbackError}`);
+  fast.log.length = 0;
+  const met = await b.page.evaluate((e) => window.qmTest.gltf('spot-table.glb', { plugin: true, options: { maxError: e, requestInit: { cache: 'no-store' } } }), fallbackError);
+  assert.equal(met.ok, true, JSON.stringify(met.error));
+  assert.equal(met.final.bytes, 0);
+  assert.equal(met.final.error, fallbackError);
+  await new Promise((resolve) => setTimeout(resolve, 200));
+  assert.deepEqual(requests(fast.log, '/spot-static.qm'), [], fast.log.join('\n'));
   assert.deepEqual(b.errors, []);
 });
+
+// The JSON chunk of a GLB.
+function glbJson(bytes) {
+  const length = bytes.readUInt32LE(12);
+  return bytes.subarray(20, 20 + length);
+}

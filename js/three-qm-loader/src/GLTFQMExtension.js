@@ -26,6 +26,26 @@ function bytesFor(ext, { maxError, maxBytes }) {
   return bytes;
 }
 
+// The update a primitive ends with when its fallback met the goal.
+function fallbackUpdate(geometry, ext) {
+  const row = Array.isArray(ext.levels) ? ext.levels.find((r) => r.bytes >= ext.fallback.bytes) : undefined;
+  return {
+    geometry,
+    bytes: 0,
+    bytesUsed: ext.fallback.bytes,
+    total: typeof ext.byteLength === 'number' ? ext.byteLength : null,
+    level: ext.fallback.level,
+    finestLevel: ext.finestLevel ?? 0,
+    passes: row?.passes ?? 0,
+    totalPasses: Array.isArray(ext.levels) && ext.levels.length ? ext.levels.at(-1).passes : 0,
+    error: ext.fallback.error,
+    psnr: NaN,
+    complete: false,
+    vertexCount: geometry.getAttribute('position')?.count ?? 0,
+    triangleCount: (geometry.getIndex()?.count ?? 0) / 3,
+  };
+}
+
 export class GLTFQMExtension {
   constructor(parser, options = {}) {
     this.parser = parser;
@@ -83,6 +103,11 @@ export class GLTFQMExtension {
 
   async #streamOne({ geometry, ext, meshIndex, primitiveIndex }) {
     const { onUpdate, ...rest } = this.streamOptions;
+    // A fallback that meets the error goal already: nothing to fetch.
+    const fallback = ext.fallback ?? {};
+    if (rest.maxError !== undefined && rest.maxError > 0 && typeof fallback.error === 'number' && fallback.error <= rest.maxError) {
+      return fallbackUpdate(geometry, ext);
+    }
     const maxBytes = bytesFor(ext, rest);
     const options = {
       ...rest,
