@@ -748,6 +748,13 @@ fn info(input: &Path, levels: bool, json: bool) -> Result<(), Failure> {
     let n = 1u64 << h.level;
     let faces = h.base_faces as u64;
     let update = qm::UpdateRule::from_code(h.update).map_or("unknown".into(), |u| format!("{u:?}"));
+    let levels = if levels {
+        let rows = qm::prefix_table(&data, &qm::DecodeOptions::DEFAULT)
+            .map_err(|e| Failure::about(input, e))?;
+        Some(rows.into_iter().map(PrefixRow::from).collect())
+    } else {
+        None
+    };
     let info = Info {
         file: input.display().to_string(),
         total_bytes: data.len(),
@@ -772,16 +779,8 @@ fn info(input: &Path, levels: bool, json: bool) -> Result<(), Failure> {
         faces: faces * n * n,
         bbox_min: h.origin,
         step: h.step,
-        levels: None,
+        levels,
     };
-    let levels = if levels {
-        let rows = qm::prefix_table(&data, &qm::DecodeOptions::DEFAULT)
-            .map_err(|e| Failure::about(input, e))?;
-        Some(rows.into_iter().map(PrefixRow::from).collect())
-    } else {
-        None
-    };
-    let info = Info { levels, ..info };
     if json {
         println!(
             "{}",

@@ -338,11 +338,10 @@ pub fn prefix_table(bytes: &[u8], options: &DecodeOptions) -> Result<Vec<PrefixR
         decoder.push(&bytes[decoder.bytes_received()..end])?;
         decoder.refine()?;
         let mesh = decoder.mesh().expect("refined");
-        let level = mesh.level();
         rows.push(PrefixRow {
             bytes: end,
             passes: mesh.passes(),
-            level,
+            level: mesh.level(),
             vertices: mesh.vertex_count(),
             triangles: 2 * mesh.quads().len() as u64,
             error: mesh.error(),

@@ -184,9 +184,9 @@ impl std::fmt::Display for ByteSize {
 }
 
 /// The extents (as powers of two) within which meshes are worked on as
-/// they are: every ordinary unit. Outside, squared lengths and areas can overflow or fall
-/// to subnormals and zero (at 1e160 a remesh grid's cell count overflowed;
-/// at 1e-80 no face had a positive area).
+/// they are: every ordinary unit. Outside, squared lengths and areas can
+/// overflow or fall to subnormals and zero (at 1e160 a remesh grid's cell
+/// count overflowed; at 1e-80 no face had a positive area).
 const UNSCALED_LOG2: std::ops::RangeInclusive<f64> = -20.0..=20.0;
 
 /// The power of two that brings the largest extent of the bounding box of

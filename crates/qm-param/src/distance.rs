@@ -238,14 +238,12 @@ impl Surface {
     /// [`distance`] asks of mesh A), kept at its [`qm_lift::unit_scale`].
     pub fn new(mesh: &PolyMesh) -> Result<Self> {
         let scale = qm_lift::unit_scale(&mesh.positions);
-        let copy;
         let mesh = if scale == 1.0 {
-            mesh
+            std::borrow::Cow::Borrowed(mesh)
         } else {
-            copy = scaled(mesh, scale);
-            &copy
+            std::borrow::Cow::Owned(scaled(mesh, scale))
         };
-        let triangles = Triangles::new(mesh, Side::A)?;
+        let triangles = Triangles::new(&mesh, Side::A)?;
         let origin = triangles.bbox_center();
         Ok(Surface {
             mesh: Closest::new(&triangles, origin),

@@ -12,7 +12,7 @@
 
 use serde_json::{Value, json};
 
-use crate::{DecodeOptions, LevelChoice, PrefixRow, Result, StreamDecoder};
+use crate::{DecodeOptions, Decoder, LevelChoice, PrefixRow, Result, StreamDecoder};
 
 /// The extension's name.
 pub const EXTENSION: &str = "QM_progressive_mesh";
@@ -114,9 +114,10 @@ pub fn to_gltf(qm: &[u8], uri: &str, options: &GltfOptions) -> Result<Glb> {
 /// [`Glb`]'s bytes still empty).
 fn build(qm: &[u8], options: &GltfOptions) -> Result<(Value, Vec<u8>, Glb)> {
     let levels = crate::prefix_table(qm, &DecodeOptions::DEFAULT)?;
-    let mut decoder = StreamDecoder::new(DecodeOptions::DEFAULT);
-    decoder.push(qm)?;
-    let finest = decoder.finest_level();
+    // The header and base (checked by the table already).
+    let decoder = Decoder::new(qm, &DecodeOptions::DEFAULT.limits)?;
+    let finest = decoder.layout().level();
+    let stream_start = decoder.stream_start();
     let most = options
         .fallback_triangles
         .unwrap_or(DEFAULT_FALLBACK_TRIANGLES);
@@ -136,7 +137,7 @@ fn build(qm: &[u8], options: &GltfOptions) -> Result<(Value, Vec<u8>, Glb)> {
                 .find(|r| r.level >= level)
                 .map_or(qm.len(), |r| r.bytes)
         },
-        |b| b.clamp(decoder.decoder().map_or(0, |d| d.stream_start()), qm.len()),
+        |b| b.clamp(stream_start, qm.len()),
     );
     let mut fallback = StreamDecoder::new(
         DecodeOptions::DEFAULT
@@ -150,7 +151,6 @@ fn build(qm: &[u8], options: &GltfOptions) -> Result<(Value, Vec<u8>, Glb)> {
     mesh.positions_f32(&mut positions);
     let mut normals = Vec::new();
     crate::codec::vertex_normals(&positions, mesh.triangles(), &mut normals);
-    let stream_start = decoder.decoder().map_or(0, |d| d.stream_start());
 
     let mut bin = Bin::default();
     let position_view = bin.add(bytes_of_f32(&positions), Some(ARRAY_BUFFER));

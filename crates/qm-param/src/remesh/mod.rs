@@ -290,8 +290,7 @@ pub struct NormalReport {
 ///
 /// A mesh of any unit is remeshed alike: one whose extent is far from 1
 /// (light years, nanometres) is scaled by a power of two
-/// ([`qm_lift::unit_scale`],
-/// exact both ways) for the work and scaled back.
+/// ([`qm_lift::unit_scale`], exact both ways) for the work and scaled back.
 pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
     let scale = qm_lift::unit_scale(&mesh.positions);
     if scale == 1.0 {
