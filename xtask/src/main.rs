@@ -32,6 +32,9 @@
 //!   their topology. See [`stress`].
 //! - `valence [--max N]`: encode time against the valence of one vertex
 //!   (fan-capped cylinders and n-gons of 100 to 10,000). See [`valence`].
+//! - `decode-time FILE.qm [--runs N] [--bytes N ...]`: the median time of
+//!   [`qm::decode`] on the file or its prefixes, for the Python binding's
+//!   benchmark. See [`decode_time`].
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -41,6 +44,7 @@ use qm::{DecodeOptions, EncodeOptions};
 mod ab;
 mod budget;
 mod corpus;
+mod decode_time;
 mod details;
 mod plot;
 mod rd;
@@ -62,6 +66,7 @@ fn main() -> ExitCode {
         Some("corpus") => corpus::run(&args[1..]),
         Some("stress") => stress::run(&args[1..]),
         Some("valence") => valence::run(&args[1..]),
+        Some("decode-time") => decode_time::run(&args[1..]),
         _ => Err("usage: cargo xtask pass-table [MESH ...]\n       \
                   cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]\n       \
                   cargo xtask remesh-bench [--level L] [--normal-remesh on|off] [--runs N] [--against XTASK] [MESH ...]\n       \
@@ -70,7 +75,8 @@ fn main() -> ExitCode {
                   cargo xtask budget [--models FILE|DIR ...] [--db DB ...]\n       \
                   cargo xtask corpus\n       \
                   cargo xtask stress DIR\n       \
-                  cargo xtask valence [--max N]"
+                  cargo xtask valence [--max N]\n       \
+                  cargo xtask decode-time FILE.qm [--runs N] [--bytes N ...]"
             .to_string()),
     };
     match result {

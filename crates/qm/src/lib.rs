@@ -149,6 +149,14 @@ impl Decoded {
         self.raw.truncated
     }
 
+    /// Bytes of the input this mesh used: header, base mesh and the
+    /// stream bytes decoded (fewer than given where the cut fell inside a
+    /// hold or an error goal was met sooner), as
+    /// [`LevelMesh::bytes_used`] counts them.
+    pub fn bytes_used(&self) -> usize {
+        self.raw.header_bytes + self.raw.base_bytes + self.raw.decoded_stream_bytes
+    }
+
     /// The decoder's estimate of the RMS distance, in model units, of
     /// [`Decoded::mesh`] from the complete stream's finest mesh
     /// ([`codec::levels`]).
