@@ -32,6 +32,9 @@
 //!   their topology. See [`stress`].
 //! - `valence [--max N]`: encode time against the valence of one vertex
 //!   (fan-capped cylinders and n-gons of 100 to 10,000). See [`valence`].
+//! - `memory [--max-level L] [MESH[:DOMAIN] ...]`: peak memory of compress
+//!   against the memory model's estimate, on soups, fans, a plane at levels
+//!   6 to `L` and the bunny. See [`memory`].
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -42,6 +45,7 @@ mod ab;
 mod budget;
 mod corpus;
 mod details;
+mod memory;
 mod plot;
 mod rd;
 mod remesh_bench;
@@ -62,6 +66,7 @@ fn main() -> ExitCode {
         Some("corpus") => corpus::run(&args[1..]),
         Some("stress") => stress::run(&args[1..]),
         Some("valence") => valence::run(&args[1..]),
+        Some("memory") => memory::run(&args[1..]),
         _ => Err("usage: cargo xtask pass-table [MESH ...]\n       \
                   cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]\n       \
                   cargo xtask remesh-bench [--level L] [--normal-remesh on|off] [--runs N] [--against XTASK] [MESH ...]\n       \
@@ -70,7 +75,8 @@ fn main() -> ExitCode {
                   cargo xtask budget [--models FILE|DIR ...] [--db DB ...]\n       \
                   cargo xtask corpus\n       \
                   cargo xtask stress DIR\n       \
-                  cargo xtask valence [--max N]"
+                  cargo xtask valence [--max N]\n       \
+                  cargo xtask memory [--max-level L] [MESH[:DOMAIN] ...]"
             .to_string()),
     };
     match result {
