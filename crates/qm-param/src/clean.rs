@@ -1470,7 +1470,7 @@ mod tests {
     }
 
     #[test]
-    fn quads_and_ngons_are_fans() {
+    fn ngons_are_split_and_their_duplicates_found() {
         let p = [
             [0., 0., 0.],
             [1., 0., 0.],
@@ -1479,7 +1479,7 @@ mod tests {
             [0., 1., 0.],
         ];
         let mut m = poly(&p, &[[0, 1, 2, 3, 4]]);
-        m.push_face(&[0, 1, 2]); // a duplicate of the first fan triangle
+        m.push_face(&[0, 1, 4]); // a duplicate of the strip's first triangle
         let c = clean(&m).unwrap();
         assert_eq!(c.report.triangles, 4);
         assert_eq!(c.report.dropped_duplicate, 1);
