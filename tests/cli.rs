@@ -608,3 +608,37 @@ fn a_file_size_limit_fails_cleanly() {
         "{names:?}"
     );
 }
+
+/// Output piped into a reader that stops early (`qm info x.qm | head -1`)
+/// ends `qm` quietly with status 0, not with a panic on the broken pipe;
+/// output that cannot be written elsewhere (a full disk) is an error.
+#[test]
+fn a_closed_stdout_is_no_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(asset("spot.obj"), dir.path().join("spot.obj")).unwrap();
+    let out = qm(&["compress", "spot.obj", "--quiet"], dir.path());
+    assert!(out.status.success(), "{}", stderr(&out));
+    // The read end closed before `qm` writes: its first line meets a
+    // broken pipe.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_qm"))
+        .args(["info", "--levels", "spot.qm"])
+        .current_dir(dir.path())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert!(stderr(&out).is_empty(), "{}", stderr(&out));
+    if Path::new("/dev/full").exists() {
+        let out = Command::new(env!("CARGO_BIN_EXE_qm"))
+            .args(["info", "spot.qm"])
+            .current_dir(dir.path())
+            .stdout(std::fs::File::create("/dev/full").unwrap())
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+        assert!(stderr(&out).starts_with("error: cannot write to stdout"));
+    }
+}

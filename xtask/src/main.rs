@@ -35,6 +35,9 @@
 //! - `decode-time FILE.qm [--runs N] [--bytes N ...]`: the median time of
 //!   [`qm::decode`] on the file or its prefixes, for the Python binding's
 //!   benchmark. See [`decode_time`].
+//! - `memory [--max-level L] [MESH[:DOMAIN] ...]`: peak memory of compress
+//!   against the memory model's estimate, on soups, fans, a plane at levels
+//!   6 to `L` and the bunny. See [`memory`].
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -46,6 +49,7 @@ mod budget;
 mod corpus;
 mod decode_time;
 mod details;
+mod memory;
 mod plot;
 mod rd;
 mod remesh_bench;
@@ -67,6 +71,7 @@ fn main() -> ExitCode {
         Some("stress") => stress::run(&args[1..]),
         Some("valence") => valence::run(&args[1..]),
         Some("decode-time") => decode_time::run(&args[1..]),
+        Some("memory") => memory::run(&args[1..]),
         _ => Err("usage: cargo xtask pass-table [MESH ...]\n       \
                   cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]\n       \
                   cargo xtask remesh-bench [--level L] [--normal-remesh on|off] [--runs N] [--against XTASK] [MESH ...]\n       \
@@ -76,7 +81,8 @@ fn main() -> ExitCode {
                   cargo xtask corpus\n       \
                   cargo xtask stress DIR\n       \
                   cargo xtask valence [--max N]\n       \
-                  cargo xtask decode-time FILE.qm [--runs N] [--bytes N ...]"
+                  cargo xtask decode-time FILE.qm [--runs N] [--bytes N ...]\n       \
+                  cargo xtask memory [--max-level L] [MESH[:DOMAIN] ...]"
             .to_string()),
     };
     match result {

@@ -152,7 +152,11 @@ pub fn run(args: &[String]) -> Result<(), String> {
 
 /// Removes `flag` and the value after it from `args`, and returns that
 /// value; an error saying the flag needs `what` if nothing follows it.
-fn take(args: &mut Vec<String>, flag: &str, what: &str) -> Result<Option<String>, String> {
+pub(crate) fn take(
+    args: &mut Vec<String>,
+    flag: &str,
+    what: &str,
+) -> Result<Option<String>, String> {
     let Some(at) = args.iter().position(|a| a == flag) else {
         return Ok(None);
     };
@@ -303,7 +307,7 @@ fn read(path: &Path) -> Result<PolyMesh, String> {
 }
 
 /// Peak resident memory of this process in KiB (Linux).
-fn peak_kb() -> Option<u64> {
+pub(crate) fn peak_kb() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
     line.split_whitespace().nth(1)?.parse().ok()

@@ -148,7 +148,7 @@ fn splitmix(mut x: u64) -> u64 {
 }
 
 /// A uniform number in `[0, 1)` from a stream and an index in it.
-fn unit(stream: u64, i: u64) -> f64 {
+pub(crate) fn unit(stream: u64, i: u64) -> f64 {
     let h = splitmix(splitmix(stream) ^ i.wrapping_mul(0xd6e8_feb8_6659_fd93));
     (h >> 11) as f64 / (1u64 << 53) as f64
 }

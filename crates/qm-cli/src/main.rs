@@ -4,6 +4,23 @@
 //! Exit status: 0 on success, 1 on bad input (one line `error: ...` on
 //! stderr naming the file and the problem), 2 on bad usage.
 
+/// `println!` without its panic: where stdout is closed early (`qm info
+/// x.qm | head -3`) the process ends quietly, as `head` expects, and any
+/// other failure to write is an error.
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::write_out(format_args!($($arg)*))
+    };
+}
+
+/// `eprintln!` without its panic: a note that cannot be written is dropped.
+macro_rules! note {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+
 mod output;
 mod serve;
 
@@ -267,12 +284,25 @@ enum Command {
     },
 }
 
+/// [`out!`]'s line.
+fn write_out(line: std::fmt::Arguments) {
+    use std::io::Write as _;
+    if let Err(e) = writeln!(std::io::stdout().lock(), "{line}") {
+        qm::io::remove_partial_outputs();
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(0);
+        }
+        let _ = writeln!(std::io::stderr(), "error: cannot write to stdout: {e}");
+        std::process::exit(1);
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     // Interrupt, terminate, hang-up: no half-written output left behind.
     let _ = ctrlc::set_handler(|| {
         qm::io::remove_partial_outputs();
-        eprintln!("interrupted");
+        note!("interrupted");
         std::process::exit(130);
     });
     // Past a file-size limit (`ulimit -f`) a write then fails with an error
@@ -389,7 +419,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(failure) => {
-            eprintln!("error: {failure}");
+            note!("error: {failure}");
             ExitCode::from(1)
         }
     }
@@ -488,7 +518,7 @@ fn compress(
     progress.finish();
     if !quiet {
         let total = compressed.bytes.len();
-        eprintln!(
+        note!(
             "{}: {} vertices, {} base quads x level {} -> {}: {} bytes (header {}, base {}, stream {}), {} passes",
             input.display(),
             compressed.samples,
@@ -531,7 +561,7 @@ fn remesh(
     progress.finish();
     if !quiet {
         report_remesh(input, &remeshed.report);
-        eprintln!(
+        note!(
             "-> {}: {} vertices, {} quads",
             output.display(),
             out.positions.len(),
@@ -543,24 +573,30 @@ fn remesh(
 
 /// The clean-up line and one line per component.
 fn report_remesh(input: &Path, r: &qm::RemeshReport) {
-    eprintln!("{}: {}", input.display(), r.clean);
+    note!("{}: {}", input.display(), r.clean);
     for (i, c) in r.components.iter().enumerate() {
-        eprintln!(
+        note!(
             "  component {i}: {} vertices -> {} base quads x level {}, {} extra cuts, stretch {:.3}, {} flipped",
-            c.vertices, c.base_quads, r.level, c.extra_cuts, c.stretch, c.flipped
+            c.vertices,
+            c.base_quads,
+            r.level,
+            c.extra_cuts,
+            c.stretch,
+            c.flipped
         );
     }
     if let Some(n) = r.normal {
-        eprintln!(
+        note!(
             "  normal placement: {} samples moved onto their normal ray, {} kept their detail",
-            n.moved, n.kept
+            n.moved,
+            n.kept
         );
     }
     if let Some(why) = &r.fallback {
-        eprintln!("  base domain: {}, since {why}", r.domain);
+        note!("  base domain: {}, since {why}", r.domain);
     }
     if let Some(psnr) = r.psnr {
-        eprintln!("  remesh measured at {psnr:.1} dB against the input");
+        note!("  remesh measured at {psnr:.1} dB against the input");
     }
 }
 
@@ -592,7 +628,7 @@ fn decompress(
     if !quiet {
         let raw = &decoded.raw;
         let used = raw.header_bytes + raw.base_bytes + raw.stream_bytes;
-        eprintln!(
+        note!(
             "{}: {} of {} bytes{}, {} of {} passes -> {}: level {} of {}, {} vertices, {} quads, estimated error {:.3e} ({:.1} dB)",
             input.display(),
             used,
@@ -656,7 +692,7 @@ fn gltf(
     .map_err(|e| Failure::about(input, e))?;
     write_atomic(&output, &glb.bytes)?;
     if !quiet {
-        eprintln!(
+        note!(
             "{} -> {}: {} bytes; fallback: level {}, {} vertices, {} triangles, from the first {} bytes (estimated {:.1} dB); the .qm {}; {} prefixes in the table",
             input.display(),
             output.display(),
@@ -782,7 +818,7 @@ fn info(input: &Path, levels: bool, json: bool) -> Result<(), Failure> {
         levels,
     };
     if json {
-        println!(
+        out!(
             "{}",
             serde_json::to_string_pretty(&info).expect("plain data serializes")
         );
@@ -790,22 +826,34 @@ fn info(input: &Path, levels: bool, json: bool) -> Result<(), Failure> {
         let value = serde_json::to_value(&info).expect("plain data serializes");
         for (key, v) in value.as_object().expect("a struct is an object") {
             if key != "levels" {
-                println!(
+                out!(
                     "{key:>18}: {}",
                     v.as_str().map_or(v.to_string(), str::to_string)
                 );
             }
         }
         if let Some(rows) = &info.levels {
-            println!("\nwhat each prefix decodes to (level auto, estimated error):");
-            println!(
+            out!("\nwhat each prefix decodes to (level auto, estimated error):");
+            out!(
                 "{:>10} {:>6} {:>5} {:>10} {:>11} {:>11} {:>8}",
-                "bytes", "passes", "level", "vertices", "triangles", "rms", "psnr dB"
+                "bytes",
+                "passes",
+                "level",
+                "vertices",
+                "triangles",
+                "rms",
+                "psnr dB"
             );
             for r in rows {
-                println!(
+                out!(
                     "{:>10} {:>6} {:>5} {:>10} {:>11} {:>11.3e} {:>8.2}",
-                    r.bytes, r.passes, r.level, r.vertices, r.triangles, r.error, r.psnr
+                    r.bytes,
+                    r.passes,
+                    r.level,
+                    r.vertices,
+                    r.triangles,
+                    r.error,
+                    r.psnr
                 );
             }
         }
@@ -832,22 +880,25 @@ fn distance(a: &Path, b: &Path, json: bool, samples: usize, seed: u64) -> Result
         Failure::about(path, qm::Error::from(e))
     })?;
     if json {
-        println!(
+        out!(
             "{}",
             serde_json::to_string_pretty(&report).expect("plain data serializes")
         );
     } else {
         let side = |name: &str, s: &qm::param::OneSided| {
-            println!(
+            out!(
                 "{name:>10}: rms {:.6e}, mean {:.6e}, max {:.6e} ({} samples)",
-                s.rms, s.mean, s.max, s.samples
+                s.rms,
+                s.mean,
+                s.max,
+                s.samples
             );
         };
-        println!("{:>10}: {:.6e}", "rms", report.rms);
-        println!("{:>10}: {:.6e}", "mean", report.mean);
-        println!("{:>10}: {:.6e}", "hausdorff", report.hausdorff);
-        println!("{:>10}: {:.3} dB", "psnr", report.psnr_db);
-        println!("{:>10}: {:.6e}", "diag", report.diag);
+        out!("{:>10}: {:.6e}", "rms", report.rms);
+        out!("{:>10}: {:.6e}", "mean", report.mean);
+        out!("{:>10}: {:.6e}", "hausdorff", report.hausdorff);
+        out!("{:>10}: {:.3} dB", "psnr", report.psnr_db);
+        out!("{:>10}: {:.6e}", "diag", report.diag);
         side("A -> B", &report.a_to_b);
         side("B -> A", &report.b_to_a);
     }

@@ -218,7 +218,7 @@ pub fn prepare(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Prepared> {
         match qm_param::detect_subdivision(mesh) {
             Ok(d) => {
                 let samples = d.mesh.positions().len() as u64;
-                qm_param::remesh::check_memory(0, 1, samples, options.max_memory)?;
+                qm_param::remesh::check_memory(0, 1, samples, false, options.max_memory)?;
                 return Ok(Prepared {
                     mesh: d.mesh,
                     source: Some(d.source),

@@ -117,7 +117,7 @@ pub fn serve(options: ServeOptions) -> Result<(), Failure> {
         ));
     }
     // The address is the result of the command: printed even with --quiet.
-    println!("http://127.0.0.1:{port}/");
+    out!("http://127.0.0.1:{port}/");
     let slots = Arc::new(Slots::new(MAX_CONNECTIONS));
     for stream in listener.incoming() {
         let Ok(stream) = stream else {

@@ -193,7 +193,10 @@ impl Buckets {
             let b = q[0].max(q[1]).max(q[2]);
             for j in at(a.y, lo.y, ny)..=at(b.y, lo.y, ny) {
                 for i in at(a.x, lo.x, nx)..=at(b.x, lo.x, nx) {
-                    cells[j * nx + i].push(k as u32);
+                    let corner = lo + DVec2::new(i as f64, j as f64) * cell;
+                    if overlaps(q, corner, cell) {
+                        cells[j * nx + i].push(k as u32);
+                    }
                 }
             }
         }
@@ -219,6 +222,29 @@ impl Buckets {
             .filter(move |&(a, b)| a >= 0 && b >= 0 && a < nx && b < ny)
             .flat_map(move |(a, b)| self.cells[(b * nx + a) as usize].iter())
     }
+}
+
+/// Whether triangle `q` reaches into the square cell of side `cell` at
+/// `corner` (or nearly: the cell grown by a thousandth of its side), given
+/// that their bounding boxes meet: no edge has the whole cell outside it.
+/// Only the cells a triangle crosses hold it, not all those of its bounding
+/// box: the slivers of a fan around a hub of high valence cross few cells
+/// each, but their boxes cover the fan.
+fn overlaps(q: &[DVec2; 3], corner: DVec2, cell: f64) -> bool {
+    let margin = 1e-3 * cell;
+    let (lo, hi) = (corner - margin, corner + cell + margin);
+    let box_corners = [lo, DVec2::new(hi.x, lo.y), hi, DVec2::new(lo.x, hi.y)];
+    let turn = (q[1] - q[0]).perp_dot(q[2] - q[0]);
+    if !turn.is_finite() || turn == 0.0 {
+        return true;
+    }
+    (0..3).all(|e| {
+        let (p, r) = (q[e], q[(e + 1) % 3]);
+        // Inside an edge is on the side of the opposite corner.
+        box_corners
+            .iter()
+            .any(|&c| (r - p).perp_dot(c - p) * turn >= 0.0)
+    })
 }
 
 /// Barycentric coordinates of `x` in 2D triangle `q`.

@@ -78,6 +78,7 @@ pub(super) fn remesh_exact(cleaned: Cleaned) -> Result<Remeshed> {
             domain: "input",
             fallback: None,
             psnr: None,
+            memory: 0,
         },
     })
 }

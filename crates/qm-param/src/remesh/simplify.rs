@@ -210,19 +210,28 @@ pub(super) fn ring(v: u32, faces: &[u32], triangles: &[[u32; 3]]) -> Option<Ring
             (t[(c + 1) % 3], t[(c + 2) % 3], f)
         })
         .collect();
+    // Sorted lookups, so that a vertex of high valence costs k log k, not
+    // k^2: (x, spoke) and the ys.
+    let mut by_x: Vec<(u32, usize)> = spokes.iter().enumerate().map(|(i, s)| (s.0, i)).collect();
+    by_x.sort_unstable();
+    let mut ys: Vec<u32> = spokes.iter().map(|s| s.1).collect();
+    ys.sort_unstable();
+    let is_y = |x: u32| ys.binary_search(&x).is_ok();
+    // The first spoke whose x is `y`.
+    let from = |y: u32| {
+        let i = by_x.partition_point(|e| e.0 < y);
+        by_x.get(i).filter(|e| e.0 == y).map(|e| e.1)
+    };
     // A boundary fan starts at the x that is no face's y.
-    let start = spokes
-        .iter()
-        .position(|s| !spokes.iter().any(|o| o.1 == s.0))
-        .unwrap_or(0);
-    let closed = spokes.iter().all(|s| spokes.iter().any(|o| o.1 == s.0));
+    let start = spokes.iter().position(|s| !is_y(s.0)).unwrap_or(0);
+    let closed = spokes.iter().all(|s| is_y(s.0));
     let mut verts = vec![spokes[start].0];
     let mut order = Vec::with_capacity(spokes.len());
     let mut at = start;
     for _ in 0..spokes.len() {
         let (_, y, f) = spokes[at];
         order.push(f);
-        match spokes.iter().position(|s| s.0 == y) {
+        match from(y) {
             Some(next) if order.len() < spokes.len() => {
                 verts.push(y);
                 at = next;
