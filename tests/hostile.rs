@@ -15,6 +15,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use proptest::prelude::*;
+use qm::io::SplitMix64;
 use qm::lift::glam::DVec3;
 
 use common::asset;
@@ -203,32 +204,6 @@ fn corpus_fails_cleanly() {
     assert!(slowest.0 < Duration::from_secs(5), "{slowest:?}");
 }
 
-/// A xorshift64* generator: deterministic, seedable, no dependency.
-struct Rng(u64);
-
-impl Rng {
-    fn new(seed: u64) -> Self {
-        // Spread small seeds over the state; the state must not be zero.
-        Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
-    }
-
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-
-    /// Uniform in `0..n` (`n > 0`), up to a negligible bias.
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
-    }
-
-    fn byte(&mut self) -> u8 {
-        self.next() as u8
-    }
-}
-
 /// CRC-32 (IEEE), bit by bit: only for re-sealing corrupted sections.
 fn crc32(data: &[u8]) -> u32 {
     let mut crc = !0u32;
@@ -280,7 +255,7 @@ fn sections(qm: &[u8]) -> Sections {
 /// damage stays inside the header or base and its checksum is recomputed, so
 /// the parser behind the checksum sees it.
 fn corrupt(valid: &[u8], seed: u64) -> Vec<u8> {
-    let mut rng = Rng::new(seed);
+    let mut rng = SplitMix64::new(seed);
     let mut bytes = valid.to_vec();
     if seed % 3 == 2 {
         let s = sections(valid);
@@ -312,7 +287,7 @@ fn corrupt(valid: &[u8], seed: u64) -> Vec<u8> {
             3 => {
                 let at = rng.below(len + 1);
                 for _ in 0..1 + rng.below(4) {
-                    bytes.insert(at, rng.byte());
+                    bytes.insert(at, rng.next_u64() as u8);
                 }
             }
             _ if len > 0 => {
@@ -322,7 +297,7 @@ fn corrupt(valid: &[u8], seed: u64) -> Vec<u8> {
                     bytes.drain(at..end);
                 } else {
                     for b in &mut bytes[at..end] {
-                        *b = rng.byte();
+                        *b = rng.next_u64() as u8;
                     }
                 }
             }
@@ -419,8 +394,8 @@ fn random_corruptions_through_the_binary() {
 /// Random positions for every sample of the cube layout at `level`.
 fn random_cube(level: u32, seed: u64) -> qm::SemiRegularMesh {
     let layout = qm::lift::Layout::new(qm::lift::synthetic::cube(), level).unwrap();
-    let mut rng = Rng::new(seed);
-    let mut coord = || (rng.next() >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0;
+    let mut rng = SplitMix64::new(seed);
+    let mut coord = || rng.next_f64() * 2.0 - 1.0;
     let positions = (0..layout.sample_count())
         .map(|_| DVec3::new(coord(), coord(), coord()))
         .collect();

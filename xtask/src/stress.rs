@@ -35,6 +35,7 @@ use std::f64::consts::{PI, TAU};
 use std::path::{Path, PathBuf};
 
 use qm::PolyMesh;
+use qm::io::SplitMix64;
 use qm::lift::glam::{DQuat, DVec3};
 use qm::param::TriMesh;
 use qm::param::clean;
@@ -138,18 +139,11 @@ fn write(path: &Path, tris: &Tris) -> Result<(), String> {
 }
 
 // ---------------------------------------------------------------------------
-// Randomness: splitmix64 of a seed, as a function, so each draw is named.
-
-fn splitmix(mut x: u64) -> u64 {
-    x = x.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    x = (x ^ (x >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    x = (x ^ (x >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    x ^ (x >> 31)
-}
+// Randomness: SplitMix64 of a seed, as a function, so each draw is named.
 
 /// A uniform number in `[0, 1)` from a stream and an index in it.
 pub(crate) fn unit(stream: u64, i: u64) -> f64 {
-    let h = splitmix(splitmix(stream) ^ i.wrapping_mul(0xd6e8_feb8_6659_fd93));
+    let h = SplitMix64::mix(SplitMix64::mix(stream) ^ i.wrapping_mul(0xd6e8_feb8_6659_fd93));
     (h >> 11) as f64 / (1u64 << 53) as f64
 }
 

@@ -45,6 +45,7 @@ mod obj;
 mod off;
 mod ply;
 mod polymesh;
+mod rng;
 mod stl;
 
 use std::fmt;
@@ -57,6 +58,7 @@ use glam::DVec3;
 pub use error::{MeshError, Problem};
 pub use glam;
 pub use polymesh::PolyMesh;
+pub use rng::SplitMix64;
 
 /// A mesh file format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

@@ -853,13 +853,8 @@ mod tests {
             write_mesh_to(&mut b, Format::Ply, &awkward_mesh()).unwrap();
             b
         }];
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut rng = crate::SplitMix64::new(0x9e37_79b9_7f4a_7c15);
+        let mut next = move || rng.next_u64();
         for seed in &seeds {
             for _ in 0..300 {
                 let mut bytes = seed.clone();

@@ -1112,15 +1112,9 @@ mod tests {
         let mesh = patch(24);
         let disk = cut::cut_to_disk(&mesh, &cut::Topology::new(&mesh), &[]);
         let density = vec![1.0; disk.triangles.len()];
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut rng = qm_io::SplitMix64::new(0x9e37_79b9_7f4a_7c15);
         let divisor = (0..disk.positions.len())
-            .map(|_| {
-                state = state
-                    .wrapping_mul(6_364_136_223_846_793_005)
-                    .wrapping_add(1_442_695_040_888_963_407);
-                let t = (state >> 11) as f64 / (1u64 << 53) as f64;
-                10f64.powf((t - 0.5) * orders)
-            })
+            .map(|_| 10f64.powf((rng.next_f64() - 0.5) * orders))
             .collect();
         (disk, density, divisor)
     }

@@ -1,31 +1,10 @@
 use std::collections::HashMap;
 use std::path::Path;
 
+use qm_io::SplitMix64;
 use qm_lift::glam::DVec3;
 
 use super::*;
-
-/// A small deterministic generator (xorshift64*), so the tests need no crates.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
-    }
-
-    fn shuffle<T>(&mut self, items: &mut [T]) {
-        for i in (1..items.len()).rev() {
-            items.swap(i, self.below(i + 1));
-        }
-    }
-}
 
 /// Positions and quads.
 type Quads = (Vec<DVec3>, Vec<[u32; 4]>);
@@ -161,7 +140,7 @@ fn refined(base: Quads, levels: u32) -> Quads {
 
 /// The same mesh with vertex ids, face order and each face's first corner
 /// scrambled, so detection cannot lean on how the generator numbered things.
-fn shuffled((positions, faces): &Quads, rng: &mut Rng) -> PolyMesh {
+fn shuffled((positions, faces): &Quads, rng: &mut SplitMix64) -> PolyMesh {
     let mut new_id: Vec<u32> = (0..positions.len() as u32).collect();
     rng.shuffle(&mut new_id);
     let mut moved = vec![DVec3::ZERO; positions.len()];
@@ -224,7 +203,7 @@ fn finds_the_level_of_scrambled_refinements() {
         ("cylinder", cylinder(4, 2), 3, 8),
         ("single quad", single_quad(), 2, 1),
     ];
-    let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+    let mut rng = SplitMix64::new(0x9E37_79B9_7F4A_7C15);
     for (name, base, levels, base_faces) in cases {
         let fine = refined(base, levels);
         for _ in 0..4 {
@@ -238,7 +217,7 @@ fn finds_the_level_of_scrambled_refinements() {
 #[test]
 fn tori_coarsen_as_far_as_the_base_stays_valid() {
     // 8x6 coarsens to 4x3, which cannot be halved again (3 is odd).
-    let mut rng = Rng(7);
+    let mut rng = SplitMix64::new(7);
     let mesh = shuffled(&refined(torus(8, 6), 1), &mut rng);
     check(&mesh, &detect_subdivision(&mesh).unwrap(), 2, 12);
     // 4x6 would coarsen to 2x3, whose edges come in pairs.
@@ -254,7 +233,7 @@ fn components_share_one_level() {
     // The cube could lose three levels, the torus only two.
     let cube = refined(cube(), 3);
     let torus = refined(torus(4, 6), 2);
-    let mut rng = Rng(11);
+    let mut rng = SplitMix64::new(11);
     let mesh = shuffled(&disjoint(cube, torus), &mut rng);
     check(&mesh, &detect_subdivision(&mesh).unwrap(), 2, 6 * 4 + 24);
 }
@@ -350,7 +329,7 @@ fn compacted((positions, faces): Quads) -> Quads {
 
 #[test]
 fn damaged_meshes_give_errors_or_exact_results_never_panics() {
-    let mut rng = Rng(0xDEAD_BEEF);
+    let mut rng = SplitMix64::new(0xDEAD_BEEF);
     let bases = [
         refined(cube(), 3),
         refined(torus(4, 6), 2),
@@ -477,7 +456,7 @@ fn large_mesh_timing() {
     let fine = refined(cube(), 9);
     for (order, mesh) in [
         ("generated", PolyMesh::from_faces(fine.0.clone(), &fine.1)),
-        ("scrambled", shuffled(&fine, &mut Rng(3))),
+        ("scrambled", shuffled(&fine, &mut SplitMix64::new(3))),
     ] {
         let start = std::time::Instant::now();
         let found = detect_subdivision(&mesh).unwrap();
