@@ -336,14 +336,11 @@ pub fn simplify(mesh: &TriMesh, target: usize) -> Base {
 ///
 /// A scan's creases are mostly noise, and they hold base vertices that the
 /// simplification cannot remove along them (a side of one triangle, the
-/// link condition). On snowden, 752 of the 872 base vertices lay on
-/// feature lines, the other 120 had to cover the rest, and half the base
-/// triangles held 0.7% of the area.
+/// link condition), leaving few to cover the rest.
 ///
 /// Where ending the lines at their turns leaves the same crease lines, the
-/// second run would be the first again, and is not made (the full dragon
-/// has no crease line either way; its first run's first phase alone took
-/// 26.6 s).
+/// second run would be the first again, and is not made
+/// (docs/decisions/014-simplifier-runs.md).
 ///
 /// With the base, the bases the kept run passed through on its way, one at
 /// each of the `checkpoints` (triangle counts) above where it stopped: the
@@ -390,9 +387,8 @@ pub struct Simplified {
 /// ends crease lines at their sharp turns (see [`simplify_part`]).
 ///
 /// So a part simplified again around its folds takes the path its first
-/// base took. Stopped at that base's size but stuck against a goal of its
-/// own size, the full dragon's second base ended at 9,950 triangles where
-/// the first had 5,460.
+/// base took: stuck against a goal of its own size instead, it ends at many
+/// more triangles (docs/decisions/014-simplifier-runs.md).
 pub fn simplify_keeping(
     mesh: &TriMesh,
     goal: usize,
@@ -1074,15 +1070,11 @@ impl<'a> Simplifier<'a> {
         // its order does not depend on the threads), of the vertices no run
         // before touched: a run under a lower shape bound reaches into the
         // regions where the usual one removed nothing, and leaves those it
-        // simplified as they are. Planning every vertex again took the
-        // full dragon's base from 13,830 quads at level 3 to 6,480 at
-        // level 4, slivers among them, and its remesh from 66.0 to 59.5 dB
-        // in 526 s instead of 367 (docs/remesher-next.md).
+        // simplified as they are: planning every vertex again made slivers
+        // and a worse, slower remesh (docs/decisions/014-simplifier-runs.md).
         //
         // The queue holds each vertex once, its priority updated where its
-        // ring changes. (A heap of every plan ever made, the stale ones
-        // skipped, grew to millions of entries on the full dragon, and its
-        // pops took 14% of the simplification's time.)
+        // ring changes, rather than every plan ever made.
         let first: Vec<(u32, Cost)> = (0..self.positions.len() as u32)
             .into_par_iter()
             .with_min_len(1024)
