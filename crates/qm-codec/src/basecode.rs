@@ -808,14 +808,8 @@ const KEEPS: u32 = 2;
 /// triangles): its leading one alone. Such a base has hundreds to thousands
 /// of triangles, and its section is most of what a cut below 65 dB holds;
 /// the bit it no longer keeps arrives in the stream with the pass of its
-/// weight. Over 13 inputs (docs/base-values.md, "Split bases") the section
-/// shrank by 15 to 18% and the PSNR of the base alone by at most 0.7 dB
-/// (charts); at equal bytes the charts' remeshes gained 1.8 to 3.1 dB
-/// between 50 and 65 dB and -0.4 to +0.7 dB between 60 and 78 dB, and two
-/// inputs sent as their own triangles came to 65 dB in 0.87 and 0.89 of
-/// Draco's bytes instead of 1.01 and 1.03. Bases of one square per part,
-/// at most a few hundred bytes, lost up to 0.4 dB with it, and keep
-/// [`KEEPS`].
+/// weight. Bases of one square per part, at most a few hundred bytes, lost
+/// PSNR with it, and keep [`KEEPS`] (docs/decisions/009-base-value-bits.md).
 const SPLIT_KEEPS: u32 = 1;
 
 /// How many of `base`'s vertices have their values coded (in the base

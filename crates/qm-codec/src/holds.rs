@@ -43,26 +43,22 @@ const WEIGHTS: [[f64; 3]; 3] = [
 pub const MAX_PROBES: usize = 1 << 17;
 
 /// Most cut decodes times samples per stream: the finer the mesh, the fewer
-/// log-spaced cuts (cc_cube: 2,730 steps, one at every byte below about
-/// 300 bytes; with the pass ends, 1,264 distinct cuts; spot 185, the bunny
-/// 45, from [`MIN_CUTS`]). Each cut is a decode with a whole inverse
-/// lifting: 2^26 made spot's encoding 2.5 times slower again.
+/// log-spaced cuts, down to [`MIN_CUTS`]. Each cut is a decode with a whole
+/// inverse lifting (docs/decisions/011-holds-thresholds.md).
 pub const CUT_WORK: usize = 1 << 24;
 
 /// Fewest cuts tried (besides the pass ends), however fine the mesh.
 pub const MIN_CUTS: usize = 24;
 
 /// A longer cut's error must exceed the best shorter one's by this factor
-/// (0.1 dB) for a hold to pay its header bytes. At 0.02 dB cc_cube's
-/// header grew to 177 bytes instead of 111 (on a 2% grid of prefixes, 65
-/// dB at 291 bytes instead of 225), for a largest measured fall of 0.025
-/// dB instead of 0.07 (`docs/holds.md`).
+/// (0.1 dB) for a hold to pay its header bytes: a finer rise buys a few
+/// hundredths of a dB with header bytes every cut pays
+/// (docs/decisions/011-holds-thresholds.md).
 const RISE: f64 = 1.023_292_992_3;
 
 /// The rise a hold needs in a stream of [`LONG_STREAM`] bytes or more
 /// (0.02 dB): there a hold's few header bytes are a small part of every cut
-/// but the first few hundred bytes. It catches rocker-arm's 0.04 dB fall
-/// at 47 dB (a hold of 47 bytes after pass 4), which 0.1 dB leaves.
+/// but the first few hundred bytes (docs/decisions/011-holds-thresholds.md).
 const RISE_LONG: f64 = 1.004_615_794_8;
 
 /// Streams this long hold rises of 0.02 dB instead of 0.1 dB.

@@ -64,10 +64,8 @@
 //! these counts up to date as coordinates become significant and subtrees
 //! open, so a context costs no search. Detail is spatially clustered (a
 //! crease, an ear, a rough patch of a scan), which a tree alone sees only
-//! through the parent and the siblings. Measured on the development models
-//! (`cargo xtask ab --a contexts=tree`): +0.30 to +1.18 dB at equal bytes
-//! from 60 to 78 dB, lossless files 4 to 6% smaller; `docs/contexts.md`
-//! has what it costs in speed.
+//! through the parent and the siblings (docs/decisions/010-neighbour-contexts.md;
+//! `docs/contexts.md` has what it costs in speed).
 //!
 //! **Reconstruction.** An unresolved coefficient is put at the centre of its
 //! uncertainty interval, so more bits never make the expected error larger
@@ -137,12 +135,9 @@ impl Weighting {
 }
 
 /// Weight in bits of a base value beyond that of a level-0 detail (see
-/// [`Weighting::base_shift`]). Measured with 11 low bits in the stream
-/// (`cargo xtask ab --a base=front --b ""` on the bunny, spot and
-/// rocker-arm, gain at 60 / 65 / 70 / 78 dB): with 0 the bunny lost 0.41
-/// and 0.47 dB at 70 and 78 dB; 1 gave +0.42 / +0.32 / +0.13 / -0.01 dB
-/// on the bunny and +0.55 to +2.63 dB at 60 dB on all three; 2 gained less
-/// (+0.33 to +2.43 dB at 60 dB).
+/// [`Weighting::base_shift`]): a base value moves its whole neighbourhood
+/// one way. At equal bytes 0 loses at high rates and 2 gains less than 1
+/// (docs/decisions/009-base-value-bits.md).
 pub const BASE_EXTRA_BITS: u32 = 1;
 
 /// Most low bits of a base value the stream carries (the rest of a 32-bit

@@ -19,16 +19,13 @@
 //! is its frame, and a detail turned by a wrong frame lands in the wrong
 //! place. Where the coarser quads are small and thin (a dense scan, a
 //! stretched corner of the parameterization) a small error in their corners
-//! turns their normal a lot: on the Stanford bunny, frames from the level
-//! `l - 1` quads lost up to 4 dB against world axes at 78 dB. So the finer
-//! levels use the level `l - 2` quads (the parent of each quad above): twice
-//! the size, and resolved a level earlier in the stream. From which level on
+//! turns their normal a lot, and frames from the level `l - 1` quads lose
+//! to world axes. So the finer levels use the level `l - 2` quads (the
+//! parent of each quad above): twice the size, and resolved a level earlier
+//! in the stream. From which level on
 //! is the stream's choice ([`crate::Lifting::with_parent_frames_from`]; the
-//! default is [`PARENTS_FROM`]). Measured at equal bytes against world axes
-//! (`cargo xtask ab`, 60/65/70/78 dB): parents from level 3 let the bunny
-//! gain +1.2/+1.6/+1.4/+1.1 dB instead of losing 0.5/1.3/1.7/4.0; from level 4
-//! gains up to 1.8 dB more on the smooth models but lets the bunny lose
-//! 0.9 dB; from level 2 lost 0.8 dB on fandisk. The encoder of `qm-codec` tries
+//! default is [`PARENTS_FROM`]; docs/decisions/012-frames-parents-from.md).
+//! No one level is best on every model, so the encoder of `qm-codec` tries
 //! 3 and 4 and keeps the better stream; if that is 4, it tries later
 //! levels too and keeps one only if it is clearly better. Once the
 //! coarser levels are exact, so is the frame.

@@ -1188,15 +1188,11 @@ pub(super) fn untangle_knots(
 /// over in some charts but not all pays [`PLEAT_PENALTY`].
 ///
 /// Any chart that draws a triangle may sample it, so each must draw it
-/// well. Measured first with the best chart's energy and no penalty, the
-/// relaxation turned triangles over in the charts that did not count:
-/// dragon_vrip_res2 had 760 triangles turned over in some chart before it
-/// and 1,070 after, and such a chart overlaps itself where it samples.
-///
-/// Unlike the harmonic and mean-value smoothing measured before
-/// (docs/remesher-next.md), this weighs compression and expansion alike:
-/// a protrusion the simplification squeezed into a sliver of a base
-/// triangle, which sampling all but skipped, opens up.
+/// well: with the best chart's energy alone the relaxation turned triangles
+/// over in the charts that did not count. Unlike harmonic or mean-value
+/// smoothing, this weighs compression and expansion alike: a protrusion the
+/// simplification squeezed into a sliver of a base triangle, which sampling
+/// all but skipped, opens up (docs/decisions/004-chart-map-relaxation.md).
 pub(super) fn relax_stretch(mesh: &TriMesh, base: &mut Base, domain: &Domain, sweeps: usize) {
     let mut knots = Knots::new(mesh, domain);
     let mut ratios: Vec<f64> = (0..mesh.triangles.len() as u32)
@@ -1228,20 +1224,13 @@ const FOLD_PENALTY: f64 = 1e4;
 /// of the charts that draw it (a pleat) in [`relax_stretch`]' energy,
 /// against at least 4 for an undistorted one. A finite penalty lets the
 /// vertices around a pleat move to undo it; an infinite one froze them
-/// (the Utah teapot 75.4 to 73.1 dB, genus12 87.4 to 86.3). Through charts,
-/// with the worst chart's energy: dragon_vrip_res2 82.5 to 88.9 dB,
-/// cheburashka 81.0 to 86.2, genus12 87.4 to 86.4, the mean over the
-/// issue's 15 inputs 86.1 to 86.6. With 100 the mean was 86.7 but genus12
-/// fell to 84.9 (docs/remesher-next.md).
+/// (docs/decisions/004-chart-map-relaxation.md).
 const PLEAT_PENALTY: f64 = 1000.0;
 
 /// How many times its last step a vertex's line search starts from when
-/// relaxing the stretch ([`Knots::relax`]). From half the ring's size each
-/// time, as before, the bunny's relaxation weighed 4.1M ring energies, most
-/// after 5 to 8 halvings; from twice the last step, 2.2M, at the same PSNR
-/// within the remesh's chaos (the mean over the 15 inputs through
-/// charts rose by 0.06 dB). From the last step itself, 1.7M, but a step
-/// that can only shrink sampled the bunny 0.3 dB worse.
+/// relaxing the stretch ([`Knots::relax`]): about half the ring energies
+/// of starting from half the ring's size, at the same PSNR; a step that can
+/// only shrink samples worse (docs/decisions/004-chart-map-relaxation.md).
 const STEP_GROWTH: f64 = 2.0;
 
 /// The regularization of the determinant in [`untangle_knots`]' energy,

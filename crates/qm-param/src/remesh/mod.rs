@@ -46,10 +46,8 @@ use crate::{Error, Part, PolyMesh, RemeshFailure, Result, TriMesh};
 const GOOD_STRETCH: f64 = 1.25;
 
 /// Floor of the curvature that sets the sample density, relative to the
-/// mean curvature (see `density`). Measured on the development models: 0
-/// starves flat parts (fandisk 80.8 dB), 1 and 3 give away most of the gain
-/// (spot 85.9 and 85.1 dB, cheburashka 90.8 and 88.2 dB against 86.3 and
-/// 91.2 dB at 0.3).
+/// mean curvature (see `density`): lower starves flat parts, higher gives
+/// away the gain of curved ones (docs/decisions/002-sample-density-floor.md).
 const DENSITY_FLOOR: f64 = 0.3;
 
 /// The remesher never makes more samples than this many per input vertex.
@@ -62,8 +60,8 @@ pub const MAX_SAMPLES_PER_VERTEX: f64 = 32.0;
 /// more than one chart may take. With the default 30 samples per input
 /// vertex the cap of 32 binds first; this binds where `max_samples` caps
 /// the target. That also keeps a mesh of one component from counting as
-/// oversampled at levels past its share (with the per-vertex cap alone,
-/// igea took level 9 and 2.36M samples against a target of 1M).
+/// oversampled at levels past its share
+/// (docs/decisions/003-level-and-base-size.md).
 const SHARE_SLACK: f64 = 1.15;
 
 /// Components with fewer triangles are split at their edges' midpoints
@@ -435,7 +433,7 @@ fn remesh_or_input(
 
 /// The most input triangles [`BaseDomain::Auto`] takes as the base itself
 /// ([`BaseDomain::Input`]) where the remesh is not faithful: such a base is
-/// sent whole before anything shows.
+/// sent whole before anything shows (docs/decisions/001-auto-base-domain.md).
 const EXACT_MOST_TRIANGLES: usize = 20_000;
 
 /// Below this PSNR [`BaseDomain::Auto`] takes a small input's own triangles
@@ -445,9 +443,8 @@ const FAITHFUL_DB: f64 = 80.0;
 
 /// The memory estimate of both remeshes at once: each holds its own
 /// structures of the input and its own samples, but they seldom peak
-/// together (the bunny and 10,000 separate triangles peaked at 1.25 and 1.2
-/// times the larger remesh alone): 1.6 times one remesh's share beyond
-/// [`FIXED_BYTES`].
+/// together: 1.6 times one remesh's share beyond [`FIXED_BYTES`]
+/// (docs/decisions/008-memory-model.md).
 fn both_memory(cleaned: &Cleaned, input_triangles: u64, options: &RemeshOptions) -> u64 {
     let vertices: usize = cleaned.components.iter().map(|c| c.positions.len()).sum();
     let samples = (options.samples_per_vertex.min(MAX_SAMPLES_PER_VERTEX) * vertices as f64)
@@ -556,13 +553,8 @@ fn remesh_auto(
 
 /// The loops that cutting a part into a disk takes (`2 genus + holes - 1`)
 /// from which [`BaseDomain::Auto`] does not try one square per part: its
-/// cut grows with them, and the map stretches along it without bound. In
-/// the set, every input with a part of 18 loops or more failed
-/// through one square (snowden 51, holes100 99, the full dragon 109, after
-/// 174 s of trying) or measured far below charts (dragon_vrip_res2 18:
-/// 48.5 against 88.9 dB; genus12 23: 58.9 against 86.4); every input that
-/// one square won has at most 1 (rocker-arm, parts300, the teapot), and
-/// the height field's 6 went to charts by 17 dB (docs/remesher-next.md).
+/// cut grows with them, and the map stretches along it without bound
+/// (docs/decisions/001-auto-base-domain.md).
 const MOST_CUT_LOOPS: i64 = 16;
 
 /// Which part needs [`MOST_CUT_LOOPS`] or more, said for the report.
@@ -584,11 +576,9 @@ fn too_many_loops(cleaned: &Cleaned) -> Option<String> {
 }
 
 /// How much better, in dB, the simplified base domain must measure for
-/// [`BaseDomain::Auto`] to take it over one square per part. Its base
-/// section is larger: rocker-arm measured 1.7 dB better through charts, but
-/// its 6 KB base took it from 0.16 to 0.50 of Draco's bytes at 65 dB and
-/// from 0.57 to 0.74 at 78 dB; the bunny (2.8 dB) and fandisk (7.3 dB) gain
-/// at every rate.
+/// [`BaseDomain::Auto`] to take it over one square per part: its base
+/// section is larger, which a small gain does not pay for at low rates
+/// (docs/decisions/001-auto-base-domain.md).
 const CLEARLY_BETTER_DB: f64 = 2.0;
 
 /// The default floor of a remesh through a simplified base domain
@@ -600,34 +590,26 @@ pub const DEFAULT_MIN_PSNR: f64 = 50.0;
 /// input ([`RemeshReport::psnr`]).
 const CHECK_SAMPLES: usize = 50_000;
 
-/// The most base triangles the level is chosen for: the base section was
-/// about 16 bytes a base triangle in format version 2, so 500 kept it near
-/// 8 KB; version 3 sends the triangles, 6 to 9 bytes each (bunny 6.4,
-/// holes100 6.7, snowden 9.2). The limit stays: near 65 dB the base is
+/// The most base triangles the level is chosen for: near 65 dB the base is
 /// still most of what qm sends. The level taken is the shallowest whose
 /// share of the samples needs no more base triangles than this and than
-/// [`BASE_SHARE`] of the samples allow. A coarse base maps with more
-/// distortion: the bunny remeshed at 61.9 dB on 85 base triangles, 95.9 dB
-/// on 339 (docs/remesher-next.md).
+/// [`BASE_SHARE`] of the samples allow; a coarser base maps with more
+/// distortion (docs/decisions/003-level-and-base-size.md).
 const MAX_BASE_TRIANGLES: f64 = 500.0;
 
 /// How far over [`MAX_BASE_TRIANGLES`] and [`BASE_SHARE`] a level's base may
 /// be rather than a level deeper (four times fewer base triangles).
 const BASE_SLACK: f64 = 1.1;
 
-/// Base triangles per sample at most: about 2% of a stream of about a byte
-/// a sample, at version 2's 16 bytes a base triangle (about 1% at
-/// version 3's 6 to 9).
+/// Base triangles per sample at most: a base section of a few percent of a
+/// stream of about a byte a sample (docs/decisions/003-level-and-base-size.md).
 const BASE_SHARE: f64 = 0.02 / 16.0;
 
 /// A remesh through charts at the level chosen that measures below this
 /// (or fails) is made again one level shallower, on four times as many
 /// base triangles, and the better kept. On a coarse base the map squeezes
-/// what stands out of it (the full dragon's horns and feet, at level 4 on
-/// 2,000 base triangles: 57.0 dB; at level 3 on 5,460: 95.0 dB), and the
-/// relaxation of single vertices opens a squeezed region only slowly. At
-/// 85 dB spot and dragon_vrip_res3 were made again too, for 2.8 and 0.5 dB
-/// on bases four times the size.
+/// what stands out of it, and the relaxation of single vertices opens a
+/// squeezed region only slowly (docs/decisions/003-level-and-base-size.md).
 const RETRY_BELOW_DB: f64 = 75.0;
 
 /// Most untangling sweeps of the map onto the base domain
@@ -636,19 +618,15 @@ const UNTANGLE_ROUNDS: usize = 50;
 
 /// How many times the folds' estimated growth of a stuck part's refold
 /// (see [`sample_charts`]) must exceed what [`BASE_SLACK`] allows for the
-/// untangling of its knots to stop after its first neighbourhood. Wider
-/// neighbourhoods untangled at most 14% more of the folds left after the
-/// first where more than two were left (the full dragon at level 4: 97, then
-/// 88, 84, 83; snowden's parts 43 to 41 and 6 to 6): the dragon's level 4
-/// gave up after 25 s of untangling before, 2 s now (same base, same remesh).
+/// untangling of its knots to stop after its first neighbourhood: wider
+/// ones untangle little more, at many times the time
+/// (docs/decisions/004-chart-map-relaxation.md).
 const KNOT_MARGIN: f64 = 2.0;
 
 /// Most sweeps of the relaxation of the map's stretch
 /// (`charts::relax_stretch`). Most inputs stop well before, with no move
-/// left worth waking its neighbours for. At 50, genus12 had not: at 200 it
-/// gained 3.3 dB (85.1 to 88.4); of 13 other inputs none moved by more than
-/// 0.2 dB, and their times by no more than one run's noise
-/// (docs/remesher-next.md).
+/// left worth waking its neighbours for; the cap is for the few that do not
+/// (docs/decisions/004-chart-map-relaxation.md).
 const STRETCH_SWEEPS: usize = 200;
 
 /// How many times a part whose map still folds is simplified again, its
@@ -825,11 +803,9 @@ fn remesh_charts(
 /// returns `None` as soon as that part shows that its base is too coarse:
 /// its map still folds after the refolds, or a refold needs (or,
 /// for a part stuck over its goal, would need) more than [`BASE_SLACK`]
-/// times its first base to hold its folded triangles.
-/// The full dragon at level 4 first folded 83 input triangles on 1,394
-/// base triangles, and its first refold took 1,888 and still folded; two
-/// more refolds, the sampling and the measure (57 dB) took 86 s before the
-/// shallower level, whose remesh measures 95 dB.
+/// times its first base to hold its folded triangles: going on would spend
+/// most of the time on a remesh the shallower level beats
+/// (docs/decisions/003-level-and-base-size.md).
 #[allow(clippy::too_many_arguments)]
 fn sample_charts(
     mesh: &PolyMesh,
@@ -1339,28 +1315,26 @@ fn part(c: usize, component: &TriMesh) -> Part {
 
 /// Bytes that remeshing and then encoding hold whatever the mesh (the
 /// process, thread stacks and pools, per-level tables). Fitted with the
-/// terms below to measured peaks (`cargo xtask memory`,
-/// `docs/hostile-input.md`, "Memory model"): a 722-triangle plane at level
-/// 6 peaked at 34 MB, 24 MB beyond its samples.
+/// terms below to peaks `cargo xtask memory` measures
+/// (docs/decisions/008-memory-model.md).
 pub const FIXED_BYTES: u64 = 24 << 20;
 
 /// Bytes that remeshing and then encoding hold per input triangle (clean-up,
 /// the simplifier or the parametrization, the surfaces of normal placement
-/// and of the holds): a dense scan of 3.49M triangles peaked at 2.9 GB, 650
-/// bytes a triangle beside its samples.
+/// and of the holds) (docs/decisions/008-memory-model.md).
 pub const BYTES_PER_TRIANGLE: u64 = 800;
 
-/// Bytes that remeshing and then encoding hold per sample: 205 to 262
-/// measured on a plane at levels 7 to 9 through one square.
+/// Bytes that remeshing and then encoding hold per sample
+/// (docs/decisions/008-memory-model.md).
 pub const BYTES_PER_SAMPLE: u64 = 280;
 
 /// Bytes per sample that measuring a remesh against its input adds (the
 /// distance's search structures over the remesh's triangles, while the
-/// remesh is held): 135 to 171 measured on the same planes.
+/// remesh is held) (docs/decisions/008-memory-model.md).
 pub const MEASURE_BYTES_PER_SAMPLE: u64 = 180;
 
-/// Bytes per part of the cleaned input (its domain, map and solver): 10,000
-/// separate triangles peaked at 674 MB, 3x what their samples explain.
+/// Bytes per part of the cleaned input (its domain, map and solver)
+/// (docs/decisions/008-memory-model.md).
 pub const BYTES_PER_PART: u64 = 20 << 10;
 
 /// The default memory limit of remeshing and encoding: 4 GiB. Higher than
@@ -1518,11 +1492,8 @@ fn chart(
             options.stretch_iterations,
         )?;
         // A cut adds seams and perimeter segments, and its square may need
-        // many more base quads: a 114-vertex sphere went from 3 to 8 a side
-        // for a cut with 0.7% less stretch, which pulled a whole multi-part
-        // mesh to a low level. So it must be clearly better; the first cut
-        // that is not ends the search. The cuts the development models keep
-        // lower the stretch by 3.8% to 9.5%.
+        // many more base quads, so it must be clearly better; the first cut
+        // that is not ends the search (docs/decisions/013-square-map.md).
         if !square::clearly_better(&trial, &map) || trial.k > map.k.max(k_max) {
             break;
         }

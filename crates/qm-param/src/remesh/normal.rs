@@ -27,10 +27,7 @@
 //! Samples that the charts' sampling put on a feature line (a crease or a
 //! border along a base edge) never move: their frame normal is one side's,
 //! taken from whichever base face owns the edge, and a ray along it slides
-//! them off the line. Moved, the fandisk's crease samples cost 2.7 dB
-//! depending on the base faces' order; kept, the charts' remeshes of the
-//! bunny, the height field and holes100 gained 1.1 to 1.6 dB, the others
-//! within 0.2 (`docs/remesher-next.md`, "Seventh step").
+//! them off the line (docs/decisions/007-normal-placement.md).
 //!
 //! A sample that does not move keeps its detail: it goes where the
 //! parameterization put it relative to its prediction, which follows its
@@ -48,12 +45,11 @@
 //! from a triangle nearby (each sample's own, recorded by `resample`, not a
 //! neighbour's, which stopped on the wrong sheet of concave junctions);
 //! kept samples' closest points, long rays and rays that meet no triangle
-//! nearby ask parry's hierarchy. On the bunny the placement adds 0.63 s to
-//! the remesher's 0.80 s.
+//! nearby ask parry's hierarchy.
 //!
-//! The bounds matter: with every ray hit accepted, spot's remesh fell from
-//! 86.3 to 66.9 dB (samples drifted up to 80 spacings and quads folded).
-//! `docs/normal-placement.md` has the measurements behind each bound.
+//! The bounds matter: with every ray hit accepted, samples drift far and
+//! quads fold (docs/decisions/007-normal-placement.md;
+//! `docs/normal-placement.md` has the measurements behind each bound).
 //!
 //! The predictions use integer coordinates on a 24-bit grid (a step of
 //! `2^-24` of the box, far below any remesh error) and no update step: the

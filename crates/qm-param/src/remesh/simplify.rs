@@ -74,36 +74,29 @@ const LOWER_QUALITY: &[f64] = &[0.005, 0.001, 0.0002];
 
 /// A turn of a crease line sharper than this (in degrees, 0 straight on)
 /// ends it where a part's crease lines are taken for scanner noise (see
-/// [`simplify_part`]). Such lines zigzag: the median turn along the
-/// creases of snowden is 24 degrees and of dragon_vrip_res3 55, against 2
-/// along fandisk's.
+/// [`simplify_part`]). Such lines zigzag, where a machined crease runs
+/// nearly straight (docs/decisions/005-noisy-creases.md).
 const NOISE_TURN_DEGREES: f64 = 60.0;
 
 /// Most neighbours of a vertex that may be removed. Its hole is
 /// retriangulated by a dynamic programme cubic in the ring, and a removal
-/// next to it plans it again: a fan's hub of valence 250 made a capped
-/// cylinder take 15 s, 1,000 more than 400 s. Removals around such a hub
-/// bring it under the bound; scans rarely have a vertex of more than 16.
+/// next to it plans it again, so a hub of hundreds takes minutes. Removals
+/// around such a hub bring it under the bound; scans rarely have a vertex
+/// of more than 16 (docs/decisions/006-high-valence-bounds.md).
 const MAX_RING: usize = 32;
 
 /// Crease lines other than clean ones (see [`CLEAN_CREASE_CV`]) may end at
 /// no more distinct vertices than this share of the target's base
 /// vertices: the longest lines are kept first. Each end holds a base
 /// vertex, and many short lines hold a base of small triangles along them,
-/// which take their samples from the rest of the part. On snowden, 1,399
-/// crease edges were kept and the largest 10% of its base triangles held
-/// 77% of the input vertices (the median held 4, the mean 39). Through
-/// charts: with a share of 0.25 for every line snowden reached 82.7 dB
-/// instead of 71.7; with 0.1 for every line (two ends counted a line)
-/// fandisk fell from 99.3 to 93.3. With clean lines exempt, 0.05 gave
-/// snowden 85.5 and 0.1 gave 84.7.
+/// which take their samples from the rest of the part
+/// (docs/decisions/005-noisy-creases.md).
 const CREASE_END_SHARE: f64 = 0.05;
 
 /// A crease line whose dihedral angle varies along it by less than this
 /// (standard deviation over mean) is clean, a machined edge, and kept
-/// whatever the budget of [`CREASE_END_SHARE`]. Medians over the chains
-/// of at least 3 edges: fandisk and the Utah teapot 0.00, dragon_vrip_res3
-/// 0.06, snowden 0.10, dragon_vrip_res4 0.14.
+/// whatever the budget of [`CREASE_END_SHARE`]
+/// (docs/decisions/005-noisy-creases.md).
 const CLEAN_CREASE_CV: f64 = 0.03;
 
 /// Where an input vertex lies on the base mesh.
@@ -343,14 +336,11 @@ pub fn simplify(mesh: &TriMesh, target: usize) -> Base {
 ///
 /// A scan's creases are mostly noise, and they hold base vertices that the
 /// simplification cannot remove along them (a side of one triangle, the
-/// link condition). On snowden, 752 of the 872 base vertices lay on
-/// feature lines, the other 120 had to cover the rest, and half the base
-/// triangles held 0.7% of the area.
+/// link condition), leaving few to cover the rest.
 ///
 /// Where ending the lines at their turns leaves the same crease lines, the
-/// second run would be the first again, and is not made (the full dragon
-/// has no crease line either way; its first run's first phase alone took
-/// 26.6 s).
+/// second run would be the first again, and is not made
+/// (docs/decisions/014-simplifier-runs.md).
 ///
 /// With the base, the bases the kept run passed through on its way, one at
 /// each of the `checkpoints` (triangle counts) above where it stopped: the
@@ -397,9 +387,8 @@ pub struct Simplified {
 /// ends crease lines at their sharp turns (see [`simplify_part`]).
 ///
 /// So a part simplified again around its folds takes the path its first
-/// base took. Stopped at that base's size but stuck against a goal of its
-/// own size, the full dragon's second base ended at 9,950 triangles where
-/// the first had 5,460.
+/// base took: stuck against a goal of its own size instead, it ends at many
+/// more triangles (docs/decisions/014-simplifier-runs.md).
 pub fn simplify_keeping(
     mesh: &TriMesh,
     goal: usize,
@@ -1081,15 +1070,11 @@ impl<'a> Simplifier<'a> {
         // its order does not depend on the threads), of the vertices no run
         // before touched: a run under a lower shape bound reaches into the
         // regions where the usual one removed nothing, and leaves those it
-        // simplified as they are. Planning every vertex again took the
-        // full dragon's base from 13,830 quads at level 3 to 6,480 at
-        // level 4, slivers among them, and its remesh from 66.0 to 59.5 dB
-        // in 526 s instead of 367 (docs/remesher-next.md).
+        // simplified as they are: planning every vertex again made slivers
+        // and a worse, slower remesh (docs/decisions/014-simplifier-runs.md).
         //
         // The queue holds each vertex once, its priority updated where its
-        // ring changes. (A heap of every plan ever made, the stale ones
-        // skipped, grew to millions of entries on the full dragon, and its
-        // pops took 14% of the simplification's time.)
+        // ring changes, rather than every plan ever made.
         let first: Vec<(u32, Cost)> = (0..self.positions.len() as u32)
             .into_par_iter()
             .with_min_len(1024)

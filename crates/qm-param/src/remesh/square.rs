@@ -38,8 +38,7 @@ use super::cut::Disk;
 use crate::{Error, RemeshFailure, Result};
 
 /// Smallest relative stretch improvement worth another reweighting (each is
-/// a sparse factorization). 2% gives the same maps as 0.5% on the
-/// development models and stops a 500k-vertex torus two solves earlier.
+/// a sparse factorization) (docs/decisions/013-square-map.md).
 const STRETCH_GAIN: f64 = 0.02;
 
 /// Systems with fewer unknowns are solved by a sparse LU (module `lu`);
@@ -279,7 +278,8 @@ pub fn parameterize(
 /// and an L2 stretch at least 2% lower (of the whole stretch, not of its
 /// excess over 1). A larger square or an extra cut has costs the stretch
 /// does not show (more base quads, more seams), so a sliver of stretch does
-/// not pay for them. A NaN stretch is never better.
+/// not pay for them (docs/decisions/013-square-map.md). A NaN stretch is
+/// never better.
 pub(super) fn clearly_better(a: &SquareMap, b: &SquareMap) -> bool {
     lower((a.flipped, a.stretch), (b.flipped, b.stretch))
 }
@@ -515,15 +515,12 @@ fn symmetrized(weights: &[Vec<(u32, f64)>]) -> Vec<Vec<(u32, f64)>> {
 ///
 /// Below [`LU_BELOW`] unknowns a sparse LU solves the system directly,
 /// without pivoting (the matrix is an M-matrix) on the Cholesky structure
-/// of its symmetric pattern (module `lu`). Above (where faer's pivoting
-/// LU, used here before, took about 4.7 s of symbolic and 2.75 s per
-/// factorization at 500k), the symmetric part's
-/// sparse Cholesky factorization (AMD ordering, 0.78 s at 500k and a third
-/// of the memory) preconditions BiCGSTAB on the mean-value system itself,
-/// which converges in 3 to 13 iterations (the 500k torus, igea). The
+/// of its symmetric pattern (module `lu`). Above, the symmetric part's
+/// sparse Cholesky factorization (AMD ordering) preconditions BiCGSTAB on
+/// the mean-value system itself, which converges in a few iterations. The
 /// symmetric solution alone would not do: without the mean-value weights'
-/// linear precision flat parts are sampled unevenly, which made lossless
-/// files 2% to 29% larger on the development models.
+/// linear precision flat parts are sampled unevenly
+/// (docs/decisions/013-square-map.md).
 ///
 /// For the Cholesky factorization only the lower triangle is stored. The
 /// pattern is built once; every solve refills the values and reuses the
