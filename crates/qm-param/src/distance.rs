@@ -283,14 +283,19 @@ const RUN: usize = 4;
 impl Closest {
     fn new(triangles: &Triangles, origin: DVec3) -> Closest {
         let (min, max) = (triangles.min - origin, triangles.max - origin);
-        let scale = ((1u64 << 21) - 1) as f64 / (max - min).max_element().max(f64::MIN_POSITIVE);
+        // Each axis over its own extent: over the longest one, a needle's
+        // centroids all fell in one column of cells, the runs took
+        // triangles from all around it and every query tried every run.
+        let top = ((1u64 << 21) - 1) as f64;
+        let scale = top / (max - min).max(DVec3::splat(f64::MIN_POSITIVE));
         let mut keyed: Vec<(u64, u32)> = triangles
             .triangles
             .par_iter()
             .enumerate()
             .map(|(i, t)| {
                 let [p, q, r] = t.map(|i| triangles.positions[i as usize] - origin);
-                let cell = (((p + q + r) / 3.0 - min) * scale).max(DVec3::ZERO);
+                let cell =
+                    (((p + q + r) / 3.0 - min) * scale).clamp(DVec3::ZERO, DVec3::splat(top));
                 let key =
                     morton(cell.x as u64) | morton(cell.y as u64) << 1 | morton(cell.z as u64) << 2;
                 (key, i as u32)
@@ -555,16 +560,25 @@ mod tests {
     /// by one finds, for points near, on and far from a bumpy sphere.
     #[test]
     fn closest_points_match_a_search_of_every_triangle() {
+        // Round, and a needle a thousand times longer than wide (each axis
+        // has its own Morton scale).
+        for stretch in [DVec3::ONE, DVec3::new(1e-3, 1e-3, 1.0)] {
+            closest_points_match_on(stretch);
+        }
+    }
+
+    fn closest_points_match_on(stretch: DVec3) {
         let mut mesh = sphere(1.0, 24, 40);
         for (i, p) in mesh.positions.iter_mut().enumerate() {
-            *p *= 1.0 + 0.05 * ((i * 7919) % 13) as f64 / 13.0;
+            *p *= (1.0 + 0.05 * ((i * 7919) % 13) as f64 / 13.0) * stretch;
         }
         let triangles = Triangles::new(&mesh, Side::A).unwrap();
-        let origin = DVec3::new(0.1, -0.2, 0.3);
+        let origin = DVec3::new(0.1, -0.2, 0.3) * stretch;
         let closest = Closest::new(&triangles, origin);
         let mut rng = SplitMix64::new(7);
         for _ in 0..2000 {
-            let p = DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 4.0 - 2.0;
+            let p =
+                (DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 4.0 - 2.0) * stretch;
             let q = p - origin;
             let found = (closest.project(q) - q).length();
             let every = triangles
