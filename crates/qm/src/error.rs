@@ -18,13 +18,101 @@ pub enum Error {
     Codec(#[from] qm_codec::Error),
 }
 
+/// Who is responsible for an error ([`Error::kind`]): what a binding maps
+/// to its exception classes, and what tells a user whether to fix the
+/// input, the call, or the limit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum ErrorKind {
+    /// The data: not `.qm`, corrupt, a malformed mesh file, a mesh that
+    /// cannot be remeshed.
+    Data,
+    /// The data ended inside the header or the base mesh (a cut after it is
+    /// no error).
+    Truncated,
+    /// A limit the caller may raise: memory, samples, 32-bit indices.
+    Limit,
+    /// The caller's settings or arguments: a value out of range, an output
+    /// format that cannot be written.
+    Parameter,
+    /// The file system: a file that cannot be read or written.
+    File,
+    /// A broken internal guarantee of qm: a bug.
+    Bug,
+}
+
 impl Error {
     /// Whether the data simply ended too early (inside the header or the
     /// base mesh; a cut after the base mesh is not an error).
     pub fn is_truncated(&self) -> bool {
         matches!(self, Error::Codec(e) if e.is_truncated())
     }
+
+    /// Who is responsible for this error.
+    pub fn kind(&self) -> ErrorKind {
+        use qm_codec::Error as Codec;
+        use qm_io::MeshError as Mesh;
+        use qm_param::Error as Param;
+        match self {
+            Error::Mesh(m) => match m {
+                Mesh::Io { .. } => ErrorKind::File,
+                Mesh::UnsupportedOutput { .. } | Mesh::InvalidMesh { .. } => ErrorKind::Parameter,
+                _ if m.is_truncated() => ErrorKind::Truncated,
+                _ => ErrorKind::Data,
+            },
+            Error::Param(p) => match p {
+                // Bits are the caller's setting here: a file's bits are
+                // checked by its container (`Codec::Malformed`).
+                Param::NoSamples | Param::Lift(qm_lift::Error::BadBits { .. }) => {
+                    ErrorKind::Parameter
+                }
+                Param::TooManyVertices { .. } | Param::Memory { .. } => ErrorKind::Limit,
+                Param::Internal(_) => ErrorKind::Bug,
+                _ => ErrorKind::Data,
+            },
+            Error::Codec(c) => match c {
+                Codec::Truncated { .. } => ErrorKind::Truncated,
+                Codec::Setting { .. }
+                | Codec::Budget { .. }
+                | Codec::Lift(qm_lift::Error::BadBits { .. }) => ErrorKind::Parameter,
+                Codec::Limit { .. } | Codec::Memory { .. } => ErrorKind::Limit,
+                Codec::Io(_) => ErrorKind::File,
+                _ => ErrorKind::Data,
+            },
+        }
+    }
 }
 
 /// Result alias of the facade.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{DecodeOptions, EncodeOptions, Options, PolyMesh};
+    use qm_lift::glam::DVec3;
+
+    fn tetrahedron() -> PolyMesh {
+        let p = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z];
+        PolyMesh::from_faces(p.to_vec(), &[[0u32, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    }
+
+    /// One error of each kind, each from what a user would do.
+    #[test]
+    fn each_error_names_who_is_responsible() {
+        let bytes = crate::encode(&tetrahedron(), &Options::default())
+            .unwrap()
+            .bytes;
+        let decode = |b: &[u8], o: &DecodeOptions| crate::decode(b, o).unwrap_err().kind();
+        let defaults = DecodeOptions::DEFAULT;
+        assert_eq!(decode(b"not a qm file at all", &defaults), ErrorKind::Data);
+        assert_eq!(decode(&bytes[..10], &defaults), ErrorKind::Truncated);
+        let tight = defaults.with_limits(qm_codec::Limits::DEFAULT.with_max_memory(1));
+        assert_eq!(decode(&bytes, &tight), ErrorKind::Limit);
+        let bits = Options::default().with_encode(EncodeOptions::DEFAULT.with_bits(40));
+        let err = crate::encode(&tetrahedron(), &bits).unwrap_err();
+        assert_eq!(err.kind(), ErrorKind::Parameter, "{err}");
+        let missing = crate::read_mesh("no-such-folder/no-such-mesh.obj").unwrap_err();
+        assert_eq!(missing.kind(), ErrorKind::File, "{missing}");
+    }
+}

@@ -39,7 +39,7 @@ pub mod gltf;
 
 use std::path::Path;
 
-pub use error::{Error, Result};
+pub use error::{Error, ErrorKind, Result};
 pub use qm_codec as codec;
 pub use qm_ezw as ezw;
 pub use qm_io as io;
