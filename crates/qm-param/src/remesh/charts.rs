@@ -191,10 +191,11 @@ impl Buckets {
         for (k, (_, q)) in drawn.iter().enumerate() {
             let a = q[0].min(q[1]).min(q[2]);
             let b = q[0].max(q[1]).max(q[2]);
+            let turn = (q[1] - q[0]).perp_dot(q[2] - q[0]);
             for j in at(a.y, lo.y, ny)..=at(b.y, lo.y, ny) {
                 for i in at(a.x, lo.x, nx)..=at(b.x, lo.x, nx) {
                     let corner = lo + DVec2::new(i as f64, j as f64) * cell;
-                    if overlaps(q, corner, cell) {
+                    if overlaps(q, turn, corner, cell) {
                         cells[j * nx + i].push(k as u32);
                     }
                 }
@@ -224,20 +225,20 @@ impl Buckets {
     }
 }
 
-/// Whether triangle `q` reaches into the square cell of side `cell` at
-/// `corner` (or nearly: the cell grown by a thousandth of its side), given
-/// that their bounding boxes meet: no edge has the whole cell outside it.
+/// Whether triangle `q` (of doubled signed area `turn`) reaches into the
+/// square cell of side `cell` at `corner` (or nearly: the cell grown by a
+/// thousandth of its side), given that their bounding boxes meet: no edge
+/// has the whole cell outside it.
 /// Only the cells a triangle crosses hold it, not all those of its bounding
 /// box: the slivers of a fan around a hub of high valence cross few cells
 /// each, but their boxes cover the fan.
-fn overlaps(q: &[DVec2; 3], corner: DVec2, cell: f64) -> bool {
-    let margin = 1e-3 * cell;
-    let (lo, hi) = (corner - margin, corner + cell + margin);
-    let box_corners = [lo, DVec2::new(hi.x, lo.y), hi, DVec2::new(lo.x, hi.y)];
-    let turn = (q[1] - q[0]).perp_dot(q[2] - q[0]);
+fn overlaps(q: &[DVec2; 3], turn: f64, corner: DVec2, cell: f64) -> bool {
     if !turn.is_finite() || turn == 0.0 {
         return true;
     }
+    let margin = 1e-3 * cell;
+    let (lo, hi) = (corner - margin, corner + cell + margin);
+    let box_corners = [lo, DVec2::new(hi.x, lo.y), hi, DVec2::new(lo.x, hi.y)];
     (0..3).all(|e| {
         let (p, r) = (q[e], q[(e + 1) % 3]);
         // Inside an edge is on the side of the opposite corner.

@@ -346,13 +346,12 @@ fn remesh_domain(
         BaseDomain::Auto => {
             let cleaned = clean(mesh)?;
             let triangles: usize = cleaned.components.iter().map(|c| c.triangles.len()).sum();
-            let remeshed = remesh_auto(mesh, cleaned, input_triangles, options)
-                .map(|r| with_memory(r, input_triangles));
+            let remeshed = remesh_auto(mesh, cleaned, input_triangles, options);
             // A level asked for is a remesh asked for.
             if triangles > EXACT_MOST_TRIANGLES || options.level.is_some() {
                 return remeshed;
             }
-            remesh_or_input(mesh, remeshed, triangles)
+            remesh_or_input(mesh, remeshed, triangles, input_triangles)
         }
     }
 }
@@ -368,11 +367,13 @@ fn remesh_input(mesh: &PolyMesh) -> Result<Remeshed> {
 /// `auto`'s remesh of a small input (`triangles` after clean-up), or the
 /// input's own triangles where the remesh failed (not for memory), measures
 /// below [`FAITHFUL_DB`] and [`CLEARLY_BETTER_DB`] below them, or took them
-/// as its base anyway.
+/// as its base anyway; its report carries the memory of the remesh tried
+/// (`input_triangles` before clean-up).
 fn remesh_or_input(
     mesh: &PolyMesh,
     remeshed: Result<Remeshed>,
     triangles: usize,
+    input_triangles: u64,
 ) -> Result<Remeshed> {
     let (psnr, why) = match &remeshed {
         // A base of as many quads as the input's own triangles make is
@@ -426,7 +427,7 @@ fn remesh_or_input(
     exact.report.fallback = Some(why);
     // The work done is the remesh's and then the input's.
     if let Ok(r) = remeshed {
-        exact.report.memory = r.report.memory;
+        exact.report.memory = with_memory(r, input_triangles).report.memory;
     }
     Ok(exact)
 }
