@@ -19,9 +19,16 @@ fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
-/// One line `error: ...` naming the file, and exit status 1.
+/// One line `error: ...` naming the file, and exit status 1 (the input's
+/// fault).
 fn assert_fails_cleanly(out: &Output, file: &str, problem: &str) {
-    assert_eq!(out.status.code(), Some(1), "{}", stderr(out));
+    assert_fails_with(out, 1, file, problem);
+}
+
+/// One line `error: ...` naming the file, and exit status `code`: 1 the
+/// input, 2 the arguments, 3 a limit.
+fn assert_fails_with(out: &Output, code: i32, file: &str, problem: &str) {
+    assert_eq!(out.status.code(), Some(code), "{}", stderr(out));
     let err = stderr(out);
     assert_eq!(err.lines().count(), 1, "one line: {err}");
     assert!(err.starts_with("error: "), "{err}");
@@ -335,7 +342,7 @@ fn levels_table_level_choice_goals_and_gltf() {
     let ext = &json["meshes"][0]["primitives"][0]["extensions"]["QM_progressive_mesh"];
     assert_eq!(ext["uri"], "cube.qm");
     let out = qm(&["gltf", "cube.qm", "-o", "cube.usdz"], dir.path());
-    assert_fails_cleanly(&out, "cube.usdz", "must be .glb or .gltf");
+    assert_fails_with(&out, 2, "cube.usdz", "must be .glb or .gltf");
     std::fs::write(
         dir.path().join("cut.qm"),
         &std::fs::read(dir.path().join("cube.qm")).unwrap()[..30],
@@ -363,7 +370,12 @@ fn outputs_and_budgets_are_checked_before_the_work() {
         &["compress", "cube.obj", "--bytes", "50", "--quiet"],
         dir.path(),
     );
-    assert_fails_cleanly(&out, "cube.obj", "a byte budget of 50 bytes is below the");
+    assert_fails_with(
+        &out,
+        2,
+        "cube.obj",
+        "a byte budget of 50 bytes is below the",
+    );
     assert!(
         stderr(&out).contains("bytes of the header and base mesh"),
         "{}",
@@ -399,8 +411,9 @@ fn bad_input_fails_with_one_line_and_exit_1() {
     assert_fails_cleanly(&qm(&["compress", "bad.obj"], d), "bad.obj", "line 2");
     // Never overwrite the input.
     std::fs::copy(asset("quad/holed_grid_l4.obj"), d.join("g.obj")).unwrap();
-    assert_fails_cleanly(
+    assert_fails_with(
         &qm(&["compress", "g.obj", "-o", "g.obj"], d),
+        2,
         "g.obj",
         "overwrite",
     );
@@ -501,8 +514,9 @@ fn memory_limits_refuse_work_before_it_starts() {
         ],
         dir.path(),
     );
-    assert_fails_cleanly(
+    assert_fails_with(
         &out,
+        3,
         "spot.obj",
         "above the limit of 1 GiB (--max-memory raises it)",
     );
@@ -512,7 +526,7 @@ fn memory_limits_refuse_work_before_it_starts() {
         &["compress", "spot.obj", "--max-memory", "8M", "--quiet"],
         dir.path(),
     );
-    assert_fails_cleanly(&out, "spot.obj", "5856 input triangles");
+    assert_fails_with(&out, 3, "spot.obj", "5856 input triangles");
     std::fs::copy(asset("quad/cc_cube.obj"), dir.path().join("cube.obj")).unwrap();
     let out = qm(&["compress", "cube.obj", "--quiet"], dir.path());
     assert!(out.status.success(), "{}", stderr(&out));
@@ -520,7 +534,7 @@ fn memory_limits_refuse_work_before_it_starts() {
         &["decompress", "cube.qm", "--max-memory", "512K", "--quiet"],
         dir.path(),
     );
-    assert_fails_cleanly(&out, "cube.qm", "samples, above the limit of 512 KiB");
+    assert_fails_with(&out, 3, "cube.qm", "samples, above the limit of 512 KiB");
     let out = qm(
         &["decompress", "cube.qm", "--max-memory", "2M", "--quiet"],
         dir.path(),

@@ -420,7 +420,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(failure) => {
             note!("error: {failure}");
-            ExitCode::from(1)
+            ExitCode::from(failure.exit_code())
         }
     }
 }
@@ -611,7 +611,7 @@ fn decompress(
     match qm::io::Format::from_path(&output) {
         Some(qm::io::Format::Obj | qm::io::Format::Ply) => {}
         _ => {
-            return Err(Failure::new(format!(
+            return Err(Failure::parameter(format!(
                 "{}: output must be .obj or .ply",
                 output.display()
             )));
@@ -671,7 +671,7 @@ fn gltf(
         Some("glb") => false,
         Some("gltf") => true,
         _ => {
-            return Err(Failure::new(format!(
+            return Err(Failure::parameter(format!(
                 "{}: output must be .glb or .gltf",
                 output.display()
             )));

@@ -7,54 +7,93 @@ use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
-/// A one-line failure message naming the file and the problem.
+/// A one-line failure message naming the file and the problem, and who is
+/// responsible for it (which sets the exit status).
 #[derive(Debug)]
-pub struct Failure(String);
+pub struct Failure {
+    message: String,
+    kind: qm::ErrorKind,
+}
 
 impl Failure {
-    pub fn new(message: String) -> Self {
-        Failure(message)
+    /// A failure the caller's arguments are responsible for.
+    pub fn parameter(message: String) -> Self {
+        Failure {
+            message,
+            kind: qm::ErrorKind::Parameter,
+        }
+    }
+
+    /// A failure of the file system or the network.
+    pub fn file(message: String) -> Self {
+        Failure {
+            message,
+            kind: qm::ErrorKind::File,
+        }
     }
 
     /// The problem `error` with `path`. Mesh file errors name their file
     /// already.
     pub fn about(path: &Path, error: impl Into<AnyError>) -> Self {
-        match error.into() {
-            AnyError::Named(e) => Failure(e),
-            AnyError::Plain(e) => Failure(format!("{}: {e}", path.display())),
+        let AnyError {
+            message,
+            named,
+            kind,
+        } = error.into();
+        let message = if named {
+            message
+        } else {
+            format!("{}: {message}", path.display())
+        };
+        Failure { message, kind }
+    }
+
+    /// The exit status: 1 for the data or a file (bad input, a file that
+    /// cannot be read or written), 2 for the arguments (as for a usage
+    /// error), 3 for a limit the caller may raise, 4 for a bug of qm.
+    pub fn exit_code(&self) -> u8 {
+        match self.kind {
+            qm::ErrorKind::Parameter => 2,
+            qm::ErrorKind::Limit => 3,
+            qm::ErrorKind::Bug => 4,
+            _ => 1,
         }
     }
 }
 
 impl fmt::Display for Failure {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
+        f.write_str(&self.message)
     }
 }
 
-/// An error whose message does or does not name its file already.
-pub enum AnyError {
-    Named(String),
-    Plain(String),
+/// An error's message, whether it names its file already, and who is
+/// responsible for it.
+pub struct AnyError {
+    message: String,
+    named: bool,
+    kind: qm::ErrorKind,
 }
 
 impl From<qm::Error> for AnyError {
     fn from(e: qm::Error) -> Self {
-        match &e {
-            qm::Error::Mesh(m) => AnyError::Named(m.to_string()),
+        let hint = match &e {
             qm::Error::Param(qm::param::Error::Remesh {
                 failure: qm::param::RemeshFailure::Folds { .. },
                 ..
-            }) => AnyError::Plain(format!("{e} (--accept-folds writes it anyway)")),
+            }) => " (--accept-folds writes it anyway)",
             qm::Error::Param(qm::param::Error::Remesh {
                 failure: qm::param::RemeshFailure::TooFar { .. },
                 ..
-            }) => AnyError::Plain(format!("{e} (--min-remesh-psnr 0 writes it anyway)")),
+            }) => " (--min-remesh-psnr 0 writes it anyway)",
             qm::Error::Codec(qm::codec::Error::Memory { .. })
-            | qm::Error::Param(qm::param::Error::Memory { .. }) => {
-                AnyError::Plain(format!("{e} (--max-memory raises it)"))
-            }
-            _ => AnyError::Plain(e.to_string()),
+            | qm::Error::Param(qm::param::Error::Memory { .. }) => " (--max-memory raises it)",
+            _ => "",
+        };
+        AnyError {
+            message: format!("{e}{hint}"),
+            named: matches!(e, qm::Error::Mesh(_)),
+            kind: e.kind(),
         }
     }
 }
@@ -67,7 +106,11 @@ impl From<qm::codec::Error> for AnyError {
 
 impl From<std::io::Error> for AnyError {
     fn from(e: std::io::Error) -> Self {
-        AnyError::Plain(e.to_string())
+        AnyError {
+            message: e.to_string(),
+            named: false,
+            kind: qm::ErrorKind::File,
+        }
     }
 }
 
@@ -85,7 +128,7 @@ pub fn check_output(input: &Path, output: &Path) -> Result<(), Failure> {
         _ => input == output,
     };
     if same {
-        return Err(Failure(format!(
+        return Err(Failure::parameter(format!(
             "{}: output would overwrite the input",
             output.display()
         )));
@@ -95,7 +138,7 @@ pub fn check_output(input: &Path, output: &Path) -> Result<(), Failure> {
         _ => Path::new("."),
     };
     if !folder.is_dir() {
-        return Err(Failure(format!(
+        return Err(Failure::file(format!(
             "{}: the output folder {} does not exist",
             output.display(),
             folder.display()
@@ -109,7 +152,7 @@ pub fn check_output(input: &Path, output: &Path) -> Result<(), Failure> {
 /// new file, not the temporary file's owner-only one).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Failure> {
     qm::io::write_atomic(path, |file| file.write_all(bytes))
-        .map_err(|e| Failure(format!("{}: {e}", path.display())))
+        .map_err(|e| Failure::file(format!("{}: {e}", path.display())))
 }
 
 /// A spinner naming the current step; silent with `--quiet` or when stderr

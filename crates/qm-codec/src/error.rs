@@ -1,5 +1,6 @@
 //! Errors of the container and codec layer.
 
+use qm_lift::ErrorKind;
 use thiserror::Error as ThisError;
 
 /// Everything that can go wrong reading or writing `.qm` data.
@@ -103,6 +104,21 @@ impl Error {
     /// Whether the data simply ended too early (more bytes would help).
     pub fn is_truncated(&self) -> bool {
         matches!(self, Error::Truncated { .. })
+    }
+
+    /// Who is responsible for this error.
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            Error::NotQm
+            | Error::UnsupportedVersion { .. }
+            | Error::Checksum { .. }
+            | Error::Malformed { .. } => ErrorKind::Data,
+            Error::Truncated { .. } => ErrorKind::Truncated,
+            Error::Setting { .. } | Error::Budget { .. } => ErrorKind::Parameter,
+            Error::Limit { .. } | Error::Memory { .. } => ErrorKind::Limit,
+            Error::Lift(e) => e.kind(),
+            Error::Io(_) => ErrorKind::File,
+        }
     }
 }
 

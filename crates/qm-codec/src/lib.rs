@@ -31,5 +31,6 @@ pub use error::{Error, Result};
 pub use holds::Probes;
 pub use levels::{DEFAULT_TOLERANCE_DB, Estimate, LevelChoice};
 pub use qm_ezw::{self, Contexts, Weighting};
+pub use qm_lift::ErrorKind;
 pub use qm_lift::{self, UpdateRule};
 pub use stream::{LevelMesh, PrefixRow, StreamDecoder, prefix_table, vertex_normals};

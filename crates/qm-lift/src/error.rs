@@ -95,5 +95,52 @@ impl fmt::Display for Error {
 
 impl std::error::Error for Error {}
 
+/// Who is responsible for an error: what a binding maps to its exception
+/// classes, what sets the command line's exit code, and what tells a user
+/// whether to fix the input, the call, or the limit. Every layer's error
+/// has a `kind()` giving it; the layers above re-export this type.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum ErrorKind {
+    /// The data: not `.qm`, corrupt, a malformed mesh file, a mesh that
+    /// cannot be remeshed.
+    Data,
+    /// The data ended inside the part that must arrive whole (a `.qm`
+    /// stream's header or base mesh, a mesh file's promised data); a cut
+    /// after a `.qm` stream's base mesh is no error.
+    Truncated,
+    /// A limit the caller may raise: memory, samples, 32-bit indices.
+    Limit,
+    /// The caller's settings or arguments: a value out of range, arrays of
+    /// mismatched sizes, an output format that cannot be written.
+    Parameter,
+    /// The file system: a file that cannot be read or written.
+    File,
+    /// A broken internal guarantee of qm: a bug.
+    Bug,
+}
+
+impl Error {
+    /// Who is responsible for this error. A base mesh that is not a valid
+    /// quad mesh is the data's fault (it came from a file or a remesh);
+    /// a level, bits or array sizes out of range are the caller's.
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            Error::VertexOutOfRange { .. }
+            | Error::DegenerateFace { .. }
+            | Error::NonManifoldEdge { .. }
+            | Error::InconsistentOrientation { .. }
+            | Error::UnusedVertex { .. }
+            | Error::Empty
+            | Error::InconsistentGrid { .. }
+            | Error::NonFinite => ErrorKind::Data,
+            Error::LevelTooHigh { .. } | Error::SizeMismatch { .. } | Error::BadBits { .. } => {
+                ErrorKind::Parameter
+            }
+            Error::TooManySamples { .. } => ErrorKind::Limit,
+        }
+    }
+}
+
 /// Result alias of this crate.
 pub type Result<T, E = Error> = std::result::Result<T, E>;

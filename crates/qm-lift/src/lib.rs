@@ -20,7 +20,7 @@ mod split;
 pub mod synthetic;
 
 pub use base::{BaseMesh, Edge, NO_FACE, Side};
-pub use error::{Error, Result};
+pub use error::{Error, ErrorKind, Result};
 pub use layout::{Layout, MAX_LEVEL, MAX_SAMPLES, Numbering, Place, side_coords, side_point};
 pub use lifting::{Coord, Lifting, UpdateRule};
 pub use mesh::{

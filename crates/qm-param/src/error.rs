@@ -1,5 +1,6 @@
 //! Errors of the parameterization layer.
 
+use qm_lift::ErrorKind;
 use thiserror::Error as ThisError;
 
 use crate::distance::Side;
@@ -202,6 +203,30 @@ impl From<qm_lift::Error> for Error {
 }
 
 impl Error {
+    /// Who is responsible for this error. A mesh the remesher cannot make
+    /// semi-regular is the data's: a user repairs it or picks another base
+    /// domain.
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            Error::Empty
+            | Error::NotQuads { .. }
+            | Error::UnusedVertex { .. }
+            | Error::InvalidMesh(_)
+            | Error::NoSubdivisionConnectivity
+            | Error::NoFaces { .. }
+            | Error::ZeroArea { .. }
+            | Error::MissingVertex { .. }
+            | Error::NonFinite { .. }
+            | Error::VertexOutOfRange { .. }
+            | Error::NonFiniteVertex { .. }
+            | Error::Remesh { .. } => ErrorKind::Data,
+            Error::NoSamples => ErrorKind::Parameter,
+            Error::TooManyVertices { .. } | Error::Memory { .. } => ErrorKind::Limit,
+            Error::Lift(e) => e.kind(),
+            Error::Internal(_) => ErrorKind::Bug,
+        }
+    }
+
     /// A remesher failure, its part not yet known.
     pub(crate) fn remesh(failure: RemeshFailure) -> Error {
         Error::Remesh {

@@ -31,6 +31,7 @@ mod union_find;
 pub use distance::{DistanceOptions, DistanceReport, OneSided, Side, distance};
 pub use error::{Error, Part, RemeshFailure, Result};
 pub use qm_io::PolyMesh;
+pub use qm_lift::ErrorKind;
 pub use qm_lift::SemiRegularMesh;
 pub use remesh::{BaseDomain, NormalReport, RemeshOptions, RemeshReport, Remeshed, remesh};
 pub use subdivision::{Detected, detect_subdivision};

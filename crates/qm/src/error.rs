@@ -1,5 +1,6 @@
 //! Errors of the facade: those of the layers below, kept typed.
 
+pub use qm_lift::ErrorKind;
 use thiserror::Error as ThisError;
 
 /// Any error of qm. Each variant is its layer's error, shown as that error
@@ -18,29 +19,6 @@ pub enum Error {
     Codec(#[from] qm_codec::Error),
 }
 
-/// Who is responsible for an error ([`Error::kind`]): what a binding maps
-/// to its exception classes, and what tells a user whether to fix the
-/// input, the call, or the limit.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[non_exhaustive]
-pub enum ErrorKind {
-    /// The data: not `.qm`, corrupt, a malformed mesh file, a mesh that
-    /// cannot be remeshed.
-    Data,
-    /// The data ended inside the header or the base mesh (a cut after it is
-    /// no error).
-    Truncated,
-    /// A limit the caller may raise: memory, samples, 32-bit indices.
-    Limit,
-    /// The caller's settings or arguments: a value out of range, an output
-    /// format that cannot be written.
-    Parameter,
-    /// The file system: a file that cannot be read or written.
-    File,
-    /// A broken internal guarantee of qm: a bug.
-    Bug,
-}
-
 impl Error {
     /// Whether the data simply ended too early (inside the header or the
     /// base mesh; a cut after the base mesh is not an error).
@@ -48,11 +26,10 @@ impl Error {
         matches!(self, Error::Codec(e) if e.is_truncated())
     }
 
-    /// Who is responsible for this error.
+    /// Who is responsible for this error: the kind of the layer's error
+    /// (mesh files sit below the kinds and are sorted here).
     pub fn kind(&self) -> ErrorKind {
-        use qm_codec::Error as Codec;
         use qm_io::MeshError as Mesh;
-        use qm_param::Error as Param;
         match self {
             Error::Mesh(m) => match m {
                 Mesh::Io { .. } => ErrorKind::File,
@@ -60,25 +37,8 @@ impl Error {
                 _ if m.is_truncated() => ErrorKind::Truncated,
                 _ => ErrorKind::Data,
             },
-            Error::Param(p) => match p {
-                // Bits are the caller's setting here: a file's bits are
-                // checked by its container (`Codec::Malformed`).
-                Param::NoSamples | Param::Lift(qm_lift::Error::BadBits { .. }) => {
-                    ErrorKind::Parameter
-                }
-                Param::TooManyVertices { .. } | Param::Memory { .. } => ErrorKind::Limit,
-                Param::Internal(_) => ErrorKind::Bug,
-                _ => ErrorKind::Data,
-            },
-            Error::Codec(c) => match c {
-                Codec::Truncated { .. } => ErrorKind::Truncated,
-                Codec::Setting { .. }
-                | Codec::Budget { .. }
-                | Codec::Lift(qm_lift::Error::BadBits { .. }) => ErrorKind::Parameter,
-                Codec::Limit { .. } | Codec::Memory { .. } => ErrorKind::Limit,
-                Codec::Io(_) => ErrorKind::File,
-                _ => ErrorKind::Data,
-            },
+            Error::Param(p) => p.kind(),
+            Error::Codec(c) => c.kind(),
         }
     }
 }

@@ -89,7 +89,7 @@ pub fn serve(options: ServeOptions) -> Result<(), Failure> {
     let web = find_viewer(options.web.as_deref())?;
     let address = format!("127.0.0.1:{}", options.port);
     let listener =
-        TcpListener::bind(&address).map_err(|e| Failure::new(format!("{address}: {e}")))?;
+        TcpListener::bind(&address).map_err(|e| Failure::file(format!("{address}: {e}")))?;
     let port = listener.local_addr().map_or(options.port, |a| a.port());
     let state = Arc::new(State {
         web,
@@ -394,7 +394,10 @@ fn find_models(path: &Path, quiet: bool) -> Result<(Root, Vec<Model>), Failure> 
         Some(file) => {
             let name = |p: &Path| p.file_name().and_then(|n| n.to_str()).map(str::to_string);
             let (Some(given), Some(file)) = (name(path), name(file)) else {
-                return Err(Failure::new(format!("{}: not a file name", path.display())));
+                return Err(Failure::parameter(format!(
+                    "{}: not a file name",
+                    path.display()
+                )));
             };
             let kind = kind_of(&file)
                 .filter(|&k| k != Kind::Buffer)
@@ -411,7 +414,7 @@ fn find_models(path: &Path, quiet: bool) -> Result<(Root, Vec<Model>), Failure> 
             .collect(),
     };
     if models.is_empty() {
-        return Err(Failure::new(format!(
+        return Err(Failure::file(format!(
             "{}: no .qm, .glb or .gltf files in this folder",
             path.display()
         )));
@@ -484,7 +487,7 @@ fn find_viewer(web: Option<&Path>) -> Result<Root, Failure> {
     let dir = dir.canonicalize().unwrap_or(dir);
     match Root::open(&dir) {
         Ok(root) if root.open_file("index.html").is_ok() => Ok(root),
-        _ => Err(Failure::new(format!(
+        _ => Err(Failure::file(format!(
             "{}: the web viewer is not built (no index.html); {HOW_TO_BUILD}",
             dir.display()
         ))),
