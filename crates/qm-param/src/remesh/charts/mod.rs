@@ -22,7 +22,7 @@
 //!
 //! The modules, by step:
 //!
-//! - `quads`: the three quads of each base triangle ([`quads`]);
+//! - `quads`: the three quads of each base triangle ([`quads()`]);
 //! - `star`: each base vertex's star laid flat, and the [`Domain`] of a
 //!   component (every star, the input's adjacency);
 //! - `map`: the map of the input onto the base domain, placed in a chart;

@@ -31,7 +31,8 @@ type Sampled = (DVec3, u32, bool, bool);
 /// A quad's samples and fine nodes (row-major), with the quad's index.
 type QuadSamples = (usize, Vec<Option<Sampled>>, Vec<Option<Sampled>>);
 
-/// Charts [`resample`] samples at a time.
+/// Charts [`resample`] samples at a time
+/// (docs/decisions/015-chart-sampling.md).
 const CHART_BATCH: usize = 64;
 
 /// Samples `mesh` through `base` at level `level`: a patch of `3 T` base
