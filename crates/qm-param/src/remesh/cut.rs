@@ -102,7 +102,7 @@ pub struct Disk {
     /// depends only on the disk, so every solve on this disk shares it (or
     /// the error that computing it gave). Concurrent solves wait for the
     /// first to compute it.
-    pub symbolic: std::sync::OnceLock<Result<super::square::Symbolic, String>>,
+    pub symbolic: std::sync::OnceLock<Result<super::lu::SymbolicFactorization, String>>,
 }
 
 /// Cuts `mesh` (one connected, manifold, oriented component) into a disk,

@@ -4,8 +4,7 @@
 //! best description: every face is flat and every edge a crease. A
 //! remesh through a square or charts cuts across those creases, and
 //! measured on such models it stays far from the input however many
-//! samples it takes (a 66-vertex cylinder at 57.7 dB, a 12-vertex
-//! L-shaped prism at 44 dB; docs/remesher-next.md, "Eighth step"). Here
+//! samples it takes (docs/decisions/017-input-triangles.md). Here
 //! every input triangle is split into three quads, through its centroid
 //! and its edges' midpoints (`qm_lift::split_triangles`, the split the
 //! charts make of their base, so the base coder sends the triangles

@@ -1,5 +1,5 @@
 //! A sparse LU factorization without pivoting, for the parameterization's
-//! mean-value systems below [`super::square`]'s `LU_BELOW` unknowns.
+//! mean-value systems below `LU_BELOW` unknowns (module `square`).
 //!
 //! Those matrices have a symmetric pattern (a weight each way along every
 //! mesh edge) and are M-matrices: positive diagonal, negative weights, each
@@ -11,21 +11,18 @@
 //! Cholesky structure (AMD ordering), left-looking as faer's own Cholesky
 //! does, with dense blocks.
 //!
-//! The factorization runs on one thread; the two columns of the
-//! right-hand side are solved at once (on the bunny the median solve took
-//! 8.5 ms instead of 14.0). Factoring whole subtrees of the elimination
-//! tree in two halves at once saved only about 4 ms of a 40 ms
-//! factorization (a third of the work is in the top separators), for a
-//! second code path, and was taken out.
+//! The factorization runs on one thread (factoring subtrees of the
+//! elimination tree in parallel saved too little to keep a second code
+//! path); the two columns of the right-hand side are solved at once. faer's general sparse LU (partial
+//! pivoting, COLAMD ordering) has to allow for any row exchange, so its
+//! factors follow the pattern of `A^T A`: it was slower on the same
+//! matrices, for the same solutions (docs/decisions/016-sparse-lu.md).
 //!
-//! faer's general sparse LU (partial pivoting, COLAMD ordering) has to
-//! allow for any row exchange, so its factors follow the pattern of
-//! `A^T A`. On the bunny's 34,496 unknowns, the same matrices back to back
-//! on one thread (with other jobs on the machine, load about 5): faer took
-//! 0.10 to 0.13 s per factorization and 0.06 s for the structure, this
-//! 0.035 to 0.046 s and 0.035 s; the solutions agreed to 4e-14 (of values
-//! up to 1). Without normal placement, spot's and cheburashka's remeshes
-//! moved by at most 4e-14 of their bounding box diagonal.
+//! Main items: [`Symbolic`] (the structure of the factors) and [`Numeric`]
+//! (their values), and [`SymbolicFactorization`], the symbolic
+//! factorization a disk keeps for all its solves (module `cut` stores it,
+//! module `square` makes it): this LU's, or faer's Cholesky above
+//! `LU_BELOW` unknowns.
 
 use faer::linalg::matmul::matmul;
 use faer::linalg::triangular_solve::{
@@ -39,6 +36,12 @@ use faer::sparse::linalg::cholesky::{
 };
 use faer::{Accum, MatMut, MatRef, Par, Side};
 use rayon::prelude::*;
+
+/// A disk's symbolic factorization, of the kind its size asks for.
+pub enum SymbolicFactorization {
+    Lu(Symbolic),
+    Cholesky(faer::sparse::linalg::cholesky::SymbolicCholesky<usize>),
+}
 
 /// The structure of the factors of a matrix of symmetric pattern.
 pub struct Symbolic {

@@ -42,10 +42,10 @@
 //! The placement asks for the closest surface points of the samples, of
 //! four quadrature nodes per sample in every round of the fit, and for a
 //! ray per odd sample. Module `surface` walks to most answers over the mesh
-//! from a triangle nearby (each sample's own, recorded by `resample`, not a
-//! neighbour's, which stopped on the wrong sheet of concave junctions);
-//! kept samples' closest points, long rays and rays that meet no triangle
-//! nearby ask parry's hierarchy.
+//! from a triangle nearby (each sample's own, recorded by `resample`: a
+//! neighbour's may lie on the wrong sheet of a concave junction); kept
+//! samples' closest points, long rays and rays that meet no triangle
+//! nearby ask parry's hierarchy (docs/decisions/007-normal-placement.md).
 //!
 //! The bounds matter: with every ray hit accepted, samples drift far and
 //! quads fold (docs/decisions/007-normal-placement.md;
@@ -165,9 +165,8 @@ pub(super) fn place(
                     // From the hierarchy: a walk from the sample's triangle
                     // mostly agrees, but where the closest point lies on an
                     // edge it may pick the other triangle, whose normal
-                    // puts the sample back on its offset elsewhere (spot's
-                    // remesh lost 0.011 dB so), and a few ended on a
-                    // farther sheet.
+                    // puts the sample back on its offset elsewhere, or end
+                    // on a farther sheet (docs/decisions/007-normal-placement.md).
                     let foot = surface.closest(r);
                     let face = surface.normal(foot.triangle);
                     let y = r - ((r - foot.point).dot(face) - offsets[id]) * face;
