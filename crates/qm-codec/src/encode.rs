@@ -18,7 +18,9 @@ use crate::frames::{self, Frames};
 use crate::holds::{self, Probes};
 use crate::{Error, Result, basecode};
 
-/// Default extra weight, in bits, of the normal component of the details.
+/// Default extra weight, in bits, of the normal component of the details:
+/// it moves the surface, the tangential ones mostly slide samples along it
+/// (docs/decisions/027-normal-weight-bits.md).
 pub const DEFAULT_NORMAL_BITS: u32 = 2;
 
 /// Encoder settings.

@@ -43,8 +43,8 @@ pub enum Frames {
 /// two below what is sent (the whole stream, or the byte budget): `1/128`,
 /// `1/32` and `1/8` of it, shortest first so that each decode resumes from
 /// the last. There the surface is already close but the finest details are
-/// still missing (about 60 to 80 dB on the development models). Three cuts
-/// choose as five did (docs/decisions/012-frames-parents-from.md).
+/// still missing (about 60 to 80 dB on the development models). More cuts
+/// chose no other source (docs/decisions/012-frames-parents-from.md).
 pub const AUTO_CUTS: [u32; 3] = [7, 5, 3];
 
 /// [`Frames::Auto`] takes a start of the parent frames after level 4 only
