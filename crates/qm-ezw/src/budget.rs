@@ -63,7 +63,7 @@ impl Coder for Tally {
     }
 }
 
-/// Encodes like [`encode`] and returns the bit budget after each pass (the
+/// Encodes like [`encode`](crate::encode) and returns the bit budget after each pass (the
 /// bits to code the first `k + 1` passes at index `k`).
 pub fn bit_budget(
     tree: &ZeroTree,

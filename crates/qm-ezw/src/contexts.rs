@@ -23,7 +23,7 @@
 use crate::params::MAX_BASE_BITS;
 use crate::range::Context;
 
-/// Level classes of the contexts and of [`BitBudget`].
+/// Level classes of the contexts and of [`BitBudget`](crate::BitBudget).
 pub const LEVEL_CLASSES: usize = 4;
 
 /// Coarse level class: 0 = finest level, 1, 2, 3 = three or more above it.

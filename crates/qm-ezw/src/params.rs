@@ -100,7 +100,7 @@ pub const BASE_EXTRA_BITS: u32 = 1;
 /// value stays in the base section; quantized values have at most 24 bits).
 pub const MAX_BASE_BITS: u32 = 30;
 
-/// Which contexts model the bits (see [`crate::contexts`]).
+/// Which contexts model the bits (the `contexts` module describes them).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[non_exhaustive]
 pub enum Contexts {
