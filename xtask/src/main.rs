@@ -47,6 +47,7 @@ use qm::{DecodeOptions, EncodeOptions};
 mod ab;
 mod budget;
 mod corpus;
+mod curves;
 mod decode_time;
 mod details;
 mod memory;

@@ -27,7 +27,7 @@ use qm_lift::glam::DVec3;
 use qm_lift::{Coord, Quantizer, SemiRegularMesh};
 use rayon::prelude::*;
 
-use crate::codec::{Compressed, measure_cuts};
+use crate::compressed::{Compressed, measure_cuts};
 
 /// Where a triangle carries its probe points: the degree-2 rule of three
 /// interior points, exact for the mean square of an offset that is linear
@@ -54,7 +54,7 @@ pub const MIN_CUTS: usize = 24;
 /// (0.1 dB) for a hold to pay its header bytes: a finer rise buys a few
 /// hundredths of a dB with header bytes every cut pays
 /// (docs/decisions/011-holds-thresholds.md).
-const RISE: f64 = 1.023_292_992_3;
+pub(crate) const RISE: f64 = 1.023_292_992_3;
 
 /// The rise a hold needs in a stream of [`LONG_STREAM`] bytes or more
 /// (0.02 dB): there a hold's few header bytes are a small part of every cut
@@ -157,7 +157,7 @@ impl Probes {
 /// The cuts (stream offsets) at which [`find`] measures a stream of
 /// `len` bytes over `samples` samples: every pass end and log-spaced cuts
 /// from the first byte, as many as [`CUT_WORK`] allows.
-fn cuts(len: usize, samples: usize, pass_ends: &[usize]) -> Vec<usize> {
+pub(crate) fn cuts(len: usize, samples: usize, pass_ends: &[usize]) -> Vec<usize> {
     let count = (CUT_WORK / samples.max(1)).max(MIN_CUTS);
     let ratio = (len.max(2) as f64).powf(1.0 / count as f64);
     let mut cuts: Vec<usize> = (0..=count)
@@ -184,7 +184,7 @@ pub(crate) fn find(compressed: &Compressed, probes: &Probes) -> Vec<[u32; 2]> {
 
 /// The error of `compressed` at each of the stream cuts `cuts` (ascending),
 /// as a decoder sees them (holds and all).
-fn errors(compressed: &Compressed, probes: &Probes, cuts: &[usize]) -> Vec<f64> {
+pub(crate) fn errors(compressed: &Compressed, probes: &Probes, cuts: &[usize]) -> Vec<f64> {
     measure_cuts(compressed, cuts, |values| {
         probes.error(&compressed.quantizer, values)
     })
@@ -238,83 +238,6 @@ const JOIN: f64 = 1.011_579_454_1;
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::codec::{Decoder, EncodeOptions, compress};
-    use crate::container::Limits;
-
-    /// Largest rise of each error over the smallest before it, as a factor.
-    fn worst_rise(errors: &[f64]) -> f64 {
-        let mut best = f64::INFINITY;
-        let mut worst = 1.0f64;
-        for &e in errors {
-            worst = worst.max(e / best);
-            best = best.min(e);
-        }
-        worst
-    }
-
-    /// A stream whose cuts get worse for a while (the sphere's do, by far
-    /// more than [`RISE`]) gets holds, and then no cut the encoder measures
-    /// is worse than a shorter one by more than [`RISE`]; cuts inside a
-    /// hold decode exactly as its start; the stream is the same.
-    #[test]
-    fn with_holds_no_cut_is_worse_than_a_shorter_one() {
-        let mesh = qm_lift::synthetic::bumpy_sphere(4);
-        let probes = Probes::on_surface(&mesh);
-        let plain = compress(&mesh, &EncodeOptions::DEFAULT.with_holds(false)).unwrap();
-        let held = compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
-        let stream = |c: &Compressed| c.bytes[c.header_bytes + c.base_bytes..].to_vec();
-        assert_eq!(stream(&plain), stream(&held));
-        // At the cuts the encoder measures (every byte at first, then
-        // log-spaced).
-        let start = plain.header_bytes + plain.base_bytes;
-        let ends: Vec<usize> = plain.pass_ends.iter().map(|e| e - start).collect();
-        let measured = cuts(stream(&plain).len(), mesh.positions().len(), &ends);
-        let before = worst_rise(&errors(&plain, &probes, &measured));
-        let after = worst_rise(&errors(&held, &probes, &measured));
-        assert!(before > 1.05, "the sphere's cuts rise by {before}");
-        assert!(after <= RISE, "held cuts still rise by {after}");
-        let header = crate::container::read(&held.bytes, &Limits::NONE)
-            .unwrap()
-            .header;
-        assert!(!header.holds.is_empty());
-        let decoder = Decoder::new(&held.bytes, &Limits::NONE).unwrap();
-        let (mut inside, mut start) = (Vec::new(), Vec::new());
-        let s = stream(&held);
-        for &[from, to] in &header.holds {
-            decoder.decode_into(&s[..from as usize], None, None, &mut start);
-            decoder.decode_into(&s[..to as usize - 1], None, None, &mut inside);
-            assert_eq!(inside, start);
-        }
-    }
-
-    /// A byte budget that ends inside a hold ends at its start instead,
-    /// and holds past the budget are dropped: every byte sent is decoded,
-    /// to what the whole stream's decoder makes of that cut.
-    #[test]
-    fn a_budget_sends_only_bytes_that_are_decoded() {
-        let mesh = qm_lift::synthetic::bumpy_sphere(4);
-        let full = compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
-        let read = |bytes: &[u8]| crate::container::read(bytes, &Limits::NONE).unwrap().header;
-        let holds = read(&full.bytes).holds;
-        let [from, to] = *holds.iter().max_by_key(|h| h[1] - h[0]).unwrap();
-        assert!(to - from > 64 && holds.len() > 2, "{holds:?}");
-        let start = full.header_bytes + full.base_bytes;
-        let budget = start + (from + to) as usize / 2;
-        let cut = compress(&mesh, &EncodeOptions::DEFAULT.with_max_bytes(Some(budget))).unwrap();
-        let header = read(&cut.bytes);
-        let n = cut.bytes.len() - (cut.header_bytes + cut.base_bytes);
-        assert!(cut.bytes.len() < budget && n == from as usize, "{n}");
-        assert_eq!(header.hold_cut(n), n);
-        assert!(header.holds.len() < holds.len());
-        assert!(header.holds.iter().all(|&[f, _]| (f as usize) < n));
-        let decode = |bytes: &[u8]| {
-            let d = Decoder::new(bytes, &Limits::NONE).unwrap();
-            let mut values = Vec::new();
-            d.decode_into(&bytes[d.stream_start()..], None, None, &mut values);
-            values
-        };
-        assert_eq!(decode(&cut.bytes), decode(&full.bytes[..start + n]));
-    }
 
     #[test]
     fn holds_span_each_rise_from_the_best_cut_to_recovery() {

@@ -224,12 +224,9 @@ pub(crate) fn remaining(header: &Header, tree: &ZeroTree, decoded: &Decoded, bas
     (sum / samples.max(1) as f64).sqrt() * header.step * CALIBRATION
 }
 
-/// The model's RMS came out 2 dB below the true distance in the median
-/// over 13 inputs (the development models, npm snowden and the dragon at
-/// resolution 3, the stress set's holes100, parts300, genus12 and
-/// heightfield; prefixes a factor 1.6 apart, below the remesh's own floor
-/// by 6 dB or more): it is scaled by `10^(2/20)`. What is left spreads
-/// over about ±3 dB (`docs/levels.md`).
+/// The model's RMS is scaled by `10^(2/20)`: unscaled, it comes out 2 dB
+/// below the true distance in the median over a set of inputs and
+/// prefixes (docs/decisions/025-decoder-error-model.md).
 const CALIBRATION: f64 = 1.26;
 
 /// Mean square, in units of `t^2`, of the `count - significant`
@@ -243,28 +240,25 @@ fn below_share(significant: f64, count: f64) -> f64 {
 /// A level none of whose coordinates is significant yet is taken to hold
 /// at most a quarter of the coarser level's mean square per coordinate:
 /// details of a surface shrink from one level to the next (by four in
-/// energy on a smooth one; less on a noisy scan). Without it, the first
-/// cuts' estimates were up to 20 dB too pessimistic (igea's base alone),
-/// and the levels chosen there cost up to 2.9 dB.
+/// energy on a smooth one; less on a noisy scan). Without this bound the
+/// first cuts' estimates are far too pessimistic
+/// (docs/decisions/025-decoder-error-model.md).
 const FINER_DECAY: f64 = 4.0;
 
 /// Mean square of the coordinates still below their threshold `t`, in
 /// units of `t^2`, is `BELOW_SCALE * share^BELOW_POWER`, `share` being the
-/// part of the level's coordinates already significant: measured on the
-/// true coefficients of the development models' streams (the six models
-/// and two quad meshes, every level, cuts a factor 1.6 apart), the median
-/// of that mean square went from 0.003 at a share of `10^-4.5` to 0.1 at
-/// `10^-1` (`docs/levels.md`). A Laplacian law through the share
-/// overestimated it 3 to 6 times, and some hundred times where nothing
-/// was significant yet.
+/// part of the level's coordinates already significant: a law of the
+/// median mean square measured on the true coefficients of the
+/// development models' streams, which a Laplacian law through the share
+/// overestimates (docs/decisions/025-decoder-error-model.md).
 const BELOW_SCALE: f64 = 0.28;
 
 /// See [`BELOW_SCALE`].
 const BELOW_POWER: f64 = 0.43;
 
 /// The count of significant coordinates a level with none is taken to
-/// have, for [`BELOW_SCALE`]'s share: the true mean squares of such levels
-/// spread from `10^-6` to `10^-2` of `t^2`, median `2 10^-4`.
+/// have, for [`BELOW_SCALE`]'s share (what such levels' true mean squares
+/// are: docs/decisions/025-decoder-error-model.md).
 const NONE_SIGNIFICANT: f64 = 0.1;
 
 /// The values of the samples of level `level` (after synthesis to that
@@ -404,144 +398,6 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{DecodeOptions, Decoder, EncodeOptions, Limits, compress, decompress};
-    use qm_lift::synthetic::bumpy_sphere;
-
-    fn sphere_file(level: u32) -> Vec<u8> {
-        compress(&bumpy_sphere(level), &EncodeOptions::DEFAULT)
-            .unwrap()
-            .bytes
-    }
-
-    /// Cuts from the base alone to the whole file, the stream halving
-    /// from one to the one before.
-    fn cuts(bytes: &[u8], count: usize) -> Vec<usize> {
-        let start = Decoder::new(bytes, &Limits::DEFAULT)
-            .unwrap()
-            .stream_start();
-        let mut cuts: Vec<usize> = (0..count)
-            .map(|k| start + ((bytes.len() - start) >> (count - 1 - k)))
-            .collect();
-        cuts.insert(0, start);
-        cuts
-    }
-
-    #[test]
-    fn gaps_shrink_towards_the_finest_level_and_the_rest_with_bytes() {
-        let bytes = sphere_file(5);
-        let mut last_remaining = f64::INFINITY;
-        let mut coarser = 0;
-        for cut in cuts(&bytes, 12) {
-            let d = decompress(&bytes, &DecodeOptions::DEFAULT.with_max_bytes(Some(cut))).unwrap();
-            let e = &d.estimate;
-            assert!(e.diagonal > 2.0 && e.diagonal < 2.6, "{}", e.diagonal);
-            if cut == bytes.len() {
-                assert_eq!((d.level, e.remaining), (5, 0.0), "complete: lossless");
-                continue;
-            }
-            assert_eq!(e.gaps.len(), 6);
-            assert_eq!(e.gaps[5], 0.0);
-            assert!(e.gaps.windows(2).all(|w| w[0] >= w[1]), "{:?}", e.gaps);
-            assert!(e.gaps[0] > e.gaps[4], "{:?}", e.gaps);
-            assert!(
-                e.remaining >= 0.0 && e.remaining <= last_remaining * 1.1,
-                "cut {cut}: {} after {last_remaining}, {} passes",
-                e.remaining,
-                d.passes
-            );
-            last_remaining = e.remaining;
-            // The level taken is the coarsest within the tolerance.
-            assert_eq!(d.level, e.coarsest_within(DEFAULT_TOLERANCE_DB));
-            let within = 10f64.powf(DEFAULT_TOLERANCE_DB / 20.0);
-            assert!(e.error(d.level) <= e.remaining * within * 1.0001);
-            if d.level > 0 {
-                assert!(e.error(d.level - 1) > e.remaining * within);
-            }
-            coarser += usize::from(d.level < 5);
-        }
-        assert!(coarser >= 3, "short cuts choose coarser levels");
-    }
-
-    #[test]
-    fn the_remaining_error_falls_with_the_passes() {
-        for bytes in [sphere_file(5), sphere_file(3)] {
-            let passes = Decoder::new(&bytes, &Limits::DEFAULT)
-                .unwrap()
-                .header()
-                .passes;
-            let remaining = |p| {
-                let options = DecodeOptions::DEFAULT.with_passes(Some(p));
-                decompress(&bytes, &options).unwrap().estimate.remaining
-            };
-            let all: Vec<f64> = (0..=u32::from(passes)).map(remaining).collect();
-            // A pass may reveal a coarse level larger than its bound said,
-            // which raises the finer levels' bounds: two passes always fall.
-            assert!(
-                all.windows(3).all(|w| w[2] < w[0] || w[2] == 0.0),
-                "{all:?}"
-            );
-            assert!(all.windows(2).all(|w| w[1] <= 1.25 * w[0]), "{all:?}");
-            assert_eq!(all.last(), Some(&0.0));
-        }
-    }
-
-    #[test]
-    fn the_automatic_mesh_is_the_fixed_level_decode() {
-        let bytes = sphere_file(4);
-        for cut in cuts(&bytes, 6) {
-            let options = DecodeOptions::DEFAULT.with_max_bytes(Some(cut));
-            let auto = decompress(&bytes, &options).unwrap();
-            let fixed =
-                decompress(&bytes, &options.with_level(LevelChoice::Fixed(auto.level))).unwrap();
-            assert_eq!(auto.level_mesh(), fixed.level_mesh(), "cut {cut}");
-            assert_eq!(auto.estimate, fixed.estimate, "cut {cut}");
-            let finest = decompress(&bytes, &options.with_level(LevelChoice::Finest)).unwrap();
-            assert_eq!(finest.level, 4);
-            assert_eq!(finest.estimate.remaining, auto.estimate.remaining);
-            assert_eq!(finest.passes, auto.passes);
-        }
-    }
-
-    #[test]
-    fn a_triangle_cap_lowers_the_level() {
-        let bytes = sphere_file(4);
-        for (cap, level) in [(1, 0), (12, 0), (47, 0), (48, 1), (200, 2), (1 << 20, 4)] {
-            let options = DecodeOptions::DEFAULT
-                .with_level(LevelChoice::Finest)
-                .with_max_triangles(Some(cap));
-            let d = decompress(&bytes, &options).unwrap();
-            assert_eq!(d.level, level, "cap {cap}");
-            let auto = decompress(&bytes, &options.with_level(LevelChoice::Auto)).unwrap();
-            assert!(auto.level <= level);
-        }
-    }
-
-    /// An error goal stops at the first pass end that meets it and uses no
-    /// byte past it.
-    #[test]
-    fn an_error_goal_uses_the_first_pass_that_meets_it() {
-        let bytes = sphere_file(4);
-        let whole = decompress(&bytes, &DecodeOptions::DEFAULT).unwrap();
-        let diagonal = whole.estimate.diagonal;
-        let mut last_used = 0;
-        for db in [40.0, 55.0, 70.0, 85.0] {
-            let goal = diagonal / 10f64.powf(db / 20.0);
-            let d = decompress(&bytes, &DecodeOptions::DEFAULT.with_max_error(Some(goal))).unwrap();
-            assert!(d.estimate.remaining <= goal, "{db} dB");
-            assert!(!d.truncated);
-            let used = d.header_bytes + d.base_bytes + d.decoded_stream_bytes;
-            assert!(used < bytes.len() && used >= last_used, "{db} dB: {used}");
-            last_used = used;
-            // That many bytes decode the same passes; one pass fewer misses.
-            let cut =
-                decompress(&bytes, &DecodeOptions::DEFAULT.with_max_bytes(Some(used))).unwrap();
-            assert_eq!(cut.passes, d.passes);
-            if d.passes > 0 {
-                let fewer = DecodeOptions::DEFAULT.with_passes(Some(d.passes - 1));
-                assert!(decompress(&bytes, &fewer).unwrap().estimate.remaining > goal);
-            }
-        }
-    }
 
     #[test]
     fn gaps_add_up_and_extrapolate() {

@@ -12,22 +12,34 @@
 //!
 //! Main types: [`EncodeOptions`], [`Compressed`], [`DecodeOptions`],
 //! [`Decompressed`], [`container::Header`], [`Error`].
+//!
+//! The modules, by step: `encode` ([`compress`]) chooses the frames
+//! ([`Frames`]), writes the [`container`] with its base section
+//! (`basecode`) and finds the [`holds`], measuring cuts of the
+//! [`Compressed`] stream; `decode` ([`decompress`], [`Decoder`]) reads them
+//! back and chooses the output level by its error estimate ([`levels`]);
+//! `stream` ([`StreamDecoder`]) decodes a file received in pieces.
 
 mod basecode;
-mod codec;
+mod compressed;
 pub mod container;
+mod decode;
+mod encode;
 mod error;
+mod frames;
 pub mod holds;
 pub mod levels;
 mod stream;
+#[cfg(test)]
+mod tests;
 
 pub use basecode::coded_base_values;
-pub use codec::{
-    AUTO_CUTS, AUTO_MIN_GAIN_DB, Compressed, DecodeOptions, DecodeStatus, Decoder, Decompressed,
-    EncodeOptions, Frames, compress, compress_probed, decompress,
-};
+pub use compressed::Compressed;
 pub use container::{DEFAULT_MAX_MEMORY, Limits};
+pub use decode::{DecodeOptions, DecodeStatus, Decoder, Decompressed, decompress};
+pub use encode::{EncodeOptions, compress, compress_probed};
 pub use error::{Error, Result};
+pub use frames::{AUTO_CUTS, AUTO_MIN_GAIN_DB, Frames};
 pub use holds::Probes;
 pub use levels::{DEFAULT_TOLERANCE_DB, Estimate, LevelChoice};
 pub use qm_ezw::{self, Contexts, Weighting};

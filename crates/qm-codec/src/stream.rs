@@ -14,7 +14,7 @@
 use qm_lift::Coord;
 use qm_lift::glam::DVec3;
 
-use crate::codec::{DecodeOptions, DecodeStatus, Decoder};
+use crate::decode::{DecodeOptions, DecodeStatus, Decoder};
 use crate::levels::Estimate;
 use crate::{Error, Result};
 
@@ -485,7 +485,8 @@ pub fn vertex_normals(positions: &[f32], triangles: &[u32], out: &mut Vec<f32>) 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{EncodeOptions, compress, decompress};
+    use crate::decode::decompress;
+    use crate::encode::{EncodeOptions, compress};
     use qm_lift::synthetic::bumpy_sphere;
 
     #[test]

@@ -7,14 +7,29 @@
 //! stream back ([`BitReader`]) and returns the best reconstruction that prefix
 //! allows. Main types: [`StreamParams`] (what a decoder must be told),
 //! [`Weighting`], [`Encoded`], [`Decoded`].
+//!
+//! The modules, by step: `params` (what encoder and decoder agree on, and
+//! the weighting's math), `passes` (planning and running the passes, the
+//! checkpoints), `walk` (one pass over the trees and the reconstruction),
+//! `contexts` (the adaptive contexts, the neighbours' counts), `coder`
+//! (the bits as the scan sees them), `output` (what coding gives),
+//! `budget` (where the bits go) and `range` (the binary range coder).
 
-mod ezw;
+mod budget;
+mod coder;
+mod contexts;
+mod output;
+mod params;
+mod passes;
 mod range;
+#[cfg(test)]
+mod tests;
+mod walk;
 
-pub use ezw::{
-    BaseBits, BitBudget, Checkpoint, Coef, Contexts, Cost, Decoded, Encoded, LEVEL_CLASSES,
-    MAX_BASE_BITS, Nonzero, Progress, StreamParams, Weighting, bit_budget, decode, decode_resuming,
-    encode,
-};
+pub use budget::{BitBudget, Cost, bit_budget};
+pub use contexts::LEVEL_CLASSES;
+pub use output::{Decoded, Encoded, Nonzero, Progress};
+pub use params::{BaseBits, Coef, Contexts, MAX_BASE_BITS, StreamParams, Weighting};
+pub use passes::{Checkpoint, decode, decode_resuming, encode};
 pub use qm_tree::{self, ZeroTree};
 pub use range::{BitReader, BitWriter, Context, ReaderSnapshot, Truncated};

@@ -42,7 +42,7 @@
 //! library.
 
 use crate::layout::Layout;
-use crate::lifting::Coord;
+use crate::mesh::Coord;
 
 /// The default first level whose frames come from the level `l - 2`
 /// (parent) quads rather than the level `l - 1` ones. A stream may choose

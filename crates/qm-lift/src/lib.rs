@@ -22,9 +22,9 @@ pub mod synthetic;
 pub use base::{BaseMesh, Edge, NO_FACE, Side};
 pub use error::{Error, ErrorKind, Result};
 pub use layout::{Layout, MAX_LEVEL, MAX_SAMPLES, Numbering, Place, side_coords, side_point};
-pub use lifting::{Coord, Lifting, UpdateRule};
+pub use lifting::{Lifting, UpdateRule};
 pub use mesh::{
-    ByteSize, DEFAULT_BITS, MAX_BITS, MIN_BITS, Quantizer, SemiRegularMesh, bounding_box,
+    ByteSize, Coord, DEFAULT_BITS, MAX_BITS, MIN_BITS, Quantizer, SemiRegularMesh, bounding_box,
     unit_scale,
 };
 pub use split::{TriangleSplit, coding_order, split_triangles, unsplit};

@@ -34,9 +34,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::frames::{self, Turn};
 use crate::layout::Layout;
-
-/// A quantized sample or coefficient: three integer coordinates.
-pub type Coord = [i32; 3];
+use crate::mesh::Coord;
 
 type Acc = [i64; 3];
 

@@ -6,6 +6,9 @@ use serde::{Deserialize, Serialize};
 use crate::layout::Layout;
 use crate::{Error, Result};
 
+/// A quantized sample or coefficient: three integer coordinates.
+pub type Coord = [i32; 3];
+
 /// Fewest quantization bits per coordinate.
 pub const MIN_BITS: u32 = 4;
 /// Most quantization bits per coordinate (lifting stays inside `i32`).

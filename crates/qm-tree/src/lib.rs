@@ -32,12 +32,9 @@
 //! quads on either side of its edge (one on a boundary). They are computed
 //! from the sample id when asked for, from the layout's numbering (edge
 //! interiors, then face interiors row-major), so the tree keeps no table
-//! of them.
-//! Wider neighbourhoods made the coder's contexts worse, not better (mean
-//! PSNR over 16 log-spaced cuts of spot, fandisk and the bunny): with the
-//! diagonal points too, 0.01 to 0.09 dB lower; with those and the points
-//! `2h` away along the axes, 0.14 to 0.20 dB lower.
-//! The relation is mutual.
+//! of them. Wider neighbourhoods made the coder's contexts worse, not
+//! better (docs/decisions/010-neighbour-contexts.md). The relation is
+//! mutual.
 
 use qm_lift::{BaseMesh, Layout, Numbering, Place};
 
@@ -208,7 +205,8 @@ impl ZeroTree {
                 // offset stays within the face, on a side at worst; those
                 // whose coordinates are both multiples of `2h` land on a
                 // coarser sample. Away from the sides, the two tests come
-                // down to which coordinate is odd (3% off a lossless decode).
+                // down to which coordinate is odd, a shortcut that pays on
+                // a decode (docs/decisions/010-neighbour-contexts.md).
                 if x > h && x + h < n && y > h && y + h < n {
                     if x & h != 0 {
                         push(numbering.face_sample(face, x, y - h));

@@ -18,21 +18,11 @@
 
 use serde::{Deserialize, Serialize};
 
+pub use crate::basecode::{BaseSection, OLDEST, VERSION};
 use crate::{Error, Result, basecode};
 
 /// Magic bytes at the start of every `.qm` file.
 pub const MAGIC: [u8; 4] = [0x89, b'Q', b'M', b'\n'];
-
-/// The format version this build writes; it reads this one and
-/// every one back to [`OLDEST`] (`docs/format.md` specifies them). The
-/// versions differ only in how the base section codes its faces
-/// (`basecode`): version 2 by new and recent vertices, version 3 also a
-/// split triangle mesh by its triangles, version 4 those triangles' vertices
-/// beside the edge they attach to by a flag.
-pub const VERSION: u8 = 4;
-
-/// The oldest format version this build reads: the first published one.
-pub const OLDEST: u8 = 1;
 
 /// Largest [`Header::frames`]: parent-quad normals from level
 /// `MAX_LEVEL + 1` on, that is never.
@@ -168,20 +158,6 @@ fn check_implied(h: &Header, version: u8) -> Result<()> {
     Ok(())
 }
 
-/// The base mesh as stored: corners of each face, then the level-0 scaling
-/// value of each base vertex without its low bits.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct BaseSection {
-    /// Counter-clockwise corners of each base face.
-    pub faces: Vec<[u32; 4]>,
-    /// Quantized level-0 values, one per base vertex, shifted right
-    /// (arithmetically) by `low_bits`.
-    pub values: Vec<[i32; 3]>,
-    /// Low bits of each value that are in the stream instead
-    /// ([`qm_ezw::StreamParams::base_bits`]).
-    pub low_bits: u32,
-}
-
 /// A parsed container: header, base mesh and the stream bytes that follow.
 #[derive(Clone, Debug)]
 pub struct Container<'a> {
@@ -223,8 +199,9 @@ pub fn encode_header(header: &Header) -> Result<Vec<u8>> {
 }
 
 /// The CRC-32 (ISO-HDLC, as zlib and PNG) of the header and base sections.
-/// A 256-entry table: the sections are small, and crc32fast's 16 KB of
-/// tables came to 14 KB of the browser decoder's gzipped 87 KB.
+/// A 256-entry table: the sections are small, and the larger tables of a
+/// faster CRC weighed on the browser decoder's download
+/// (docs/decisions/028-checksum-table.md).
 pub fn crc32(bytes: &[u8]) -> u32 {
     const CRC: crc::Crc<u32, crc::Table<1>> =
         crc::Crc::<u32, crc::Table<1>>::new(&crc::CRC_32_ISO_HDLC);
@@ -583,237 +560,4 @@ fn check_header(h: &Header, limits: &Limits) -> Result<()> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn sample() -> (Header, BaseSection) {
-        let header = Header {
-            bits: 12,
-            level: 3,
-            update: 2,
-            weight_bits: 1,
-            normal_bits: 2,
-            frames: 1,
-            origin: [0.5, -1.0, 2.0],
-            step: 0.001,
-            base_vertices: 4,
-            base_faces: 1,
-            planes: 14,
-            passes: 14,
-            flags: 10,
-            holds: vec![[3, 9], [9, 12], [300, 70_000]],
-        };
-        // 14 planes at level 3 leave room for the low 10 bits in the
-        // stream; the flags say it holds them all.
-        let low_bits = header.stream_params().base_bits;
-        assert_eq!(low_bits, 10);
-        let values = [[0, 0, 0], [4095, 0, 7], [4095, 4095, -3], [0, 4095, 9]];
-        let base = BaseSection {
-            faces: vec![[0, 1, 2, 3]],
-            values: values.map(|v| v.map(|x| x >> low_bits)).to_vec(),
-            low_bits,
-        };
-        (header, base)
-    }
-
-    /// Holds survive the round trip, map cuts inside them to their start,
-    /// and overlapping or empty ones are refused.
-    #[test]
-    fn holds_round_trip_and_map_cuts() {
-        let (header, base) = sample();
-        let bytes = write(&header, &base, b"").unwrap();
-        let c = read(&bytes, &Limits::DEFAULT).unwrap();
-        assert_eq!(c.header.holds, header.holds);
-        let cuts = [
-            0, 3, 4, 8, 9, 10, 11, 12, 13, 300, 301, 69_999, 70_000, 70_001,
-        ];
-        let mapped = [0, 3, 3, 3, 9, 9, 9, 12, 13, 300, 300, 300, 70_000, 70_001];
-        assert_eq!(cuts.map(|n| header.hold_cut(n)), mapped);
-        for holds in [vec![[3, 3]], vec![[3, 9], [8, 12]], vec![[9, 3]]] {
-            let mut bad = header.clone();
-            bad.holds = holds;
-            assert!(write(&bad, &base, b"").is_err(), "{:?}", bad.holds);
-        }
-        // More holds than a 64 KiB header holds: refused, not wrapped.
-        let mut many = header.clone();
-        many.holds = (0..40_000).map(|k| [3 * k, 3 * k + 1]).collect();
-        assert!(matches!(write(&many, &base, b""), Err(Error::Limit { .. })));
-    }
-
-    /// A header whose holds, added up, pass 4 GiB is refused.
-    #[test]
-    fn holds_beyond_4_gib_are_refused() {
-        let (header, base) = sample();
-        let good = write(&header, &base, b"").unwrap();
-        let mut raw = bincode::serde::encode_to_vec(&header, config()).unwrap();
-        let relative: Vec<[u32; 2]> = vec![[u32::MAX - 1, 1], [1, 1]];
-        bincode::serde::encode_into_std_write(&relative, &mut raw, config()).unwrap();
-        let mut bytes = MAGIC.to_vec();
-        bytes.push(VERSION);
-        bytes.extend_from_slice(&(raw.len() as u16).to_le_bytes());
-        bytes.extend_from_slice(&raw);
-        bytes.extend_from_slice(&crc32(&bytes).to_le_bytes());
-        let old_header = 7 + u16::from_le_bytes([good[5], good[6]]) as usize + 4;
-        bytes.extend_from_slice(&good[old_header..]);
-        match read(&bytes, &Limits::DEFAULT) {
-            Err(Error::Malformed { what }) => assert!(what.contains("4 GiB"), "{what}"),
-            other => panic!("{other:?}"),
-        }
-    }
-
-    /// A high part whose value with its low bits would leave 32 bits is
-    /// refused.
-    #[test]
-    fn base_high_parts_out_of_range_are_refused() {
-        let (header, mut base) = sample();
-        base.values[2][1] = i32::MAX >> 10;
-        assert!(read(&write(&header, &base, b"").unwrap(), &Limits::DEFAULT).is_ok());
-        base.values[2][1] = (i32::MAX >> 10) + 1;
-        let bytes = write(&header, &base, b"").unwrap();
-        match read(&bytes, &Limits::DEFAULT) {
-            Err(Error::Malformed { what }) => assert!(what.contains("out of range"), "{what}"),
-            other => panic!("{other:?}"),
-        }
-    }
-
-    #[test]
-    fn round_trip_and_stream_follows() {
-        let (header, base) = sample();
-        let bytes = write(&header, &base, b"stream!").unwrap();
-        let c = read(&bytes, &Limits::DEFAULT).unwrap();
-        assert_eq!(c.header, header);
-        assert_eq!(c.base, base);
-        assert_eq!(c.stream, b"stream!");
-        assert_eq!(c.header_bytes + c.base_bytes + 7, bytes.len());
-    }
-
-    #[test]
-    fn cuts_before_the_stream_name_the_bytes_needed() {
-        let (header, base) = sample();
-        let bytes = write(&header, &base, b"").unwrap();
-        for cut in 0..bytes.len() {
-            match read(&bytes[..cut], &Limits::DEFAULT) {
-                Err(Error::Truncated { needed, available }) => {
-                    assert_eq!(available, cut);
-                    assert!(needed > cut && needed <= bytes.len());
-                }
-                other => panic!("cut {cut}: {other:?}"),
-            }
-        }
-        assert!(read(&bytes, &Limits::DEFAULT).is_ok());
-    }
-
-    #[test]
-    fn corruption_is_caught_by_checksums() {
-        let (header, base) = sample();
-        let bytes = write(&header, &base, b"").unwrap();
-        for i in 7..bytes.len() {
-            let mut bad = bytes.clone();
-            bad[i] ^= 0x10;
-            assert!(
-                read(&bad, &Limits::DEFAULT).is_err(),
-                "flip at {i} went unnoticed"
-            );
-        }
-        let mut bad = bytes.clone();
-        bad[0] = b'X';
-        assert!(matches!(read(&bad, &Limits::DEFAULT), Err(Error::NotQm)));
-        let mut bad = bytes;
-        bad[4] = 9;
-        assert!(matches!(
-            read(&bad, &Limits::DEFAULT),
-            Err(Error::UnsupportedVersion { found: 9, .. })
-        ));
-    }
-
-    /// More base bits in the stream than it has planes for are refused
-    /// with what is wrong; so are reserved flags, by the writer (the
-    /// reader's refusal is in the hostile corpus).
-    #[test]
-    fn impossible_base_bits_and_unknown_flags_are_refused() {
-        let (mut header, base) = sample();
-        header.flags = 11;
-        let mut base = base.clone();
-        base.low_bits = header.stream_params().base_bits;
-        let bytes = write(&header, &base, b"").unwrap();
-        match read(&bytes, &Limits::DEFAULT) {
-            Err(Error::Malformed { what }) => assert!(what.contains("planes for 10"), "{what}"),
-            other => panic!("{other:?}"),
-        }
-        base.low_bits = 10;
-        // The implied split is for level 0 alone (the sample is level 3).
-        let implied = Header {
-            flags: IMPLIED_SPLIT | 10,
-            ..header.clone()
-        };
-        match write(&implied, &base, b"") {
-            Err(Error::Malformed { what }) => assert!(what.contains("at level 3"), "{what}"),
-            other => panic!("{other:?}"),
-        }
-        for flags in [0x40 | 10, 0x80 | 10, 1 << 31] {
-            let header = Header {
-                flags,
-                ..header.clone()
-            };
-            let base = BaseSection {
-                low_bits: header.stream_params().base_bits,
-                ..base.clone()
-            };
-            match write(&header, &base, b"") {
-                Err(Error::Malformed { what }) => assert!(what.contains("reserved"), "{what}"),
-                other => panic!("flags {flags:#x}: {other:?}"),
-            }
-        }
-    }
-
-    /// A header that asks for more memory than the limit is refused from
-    /// the header alone, saying what it asks for; a higher limit lets it
-    /// through to the next check.
-    #[test]
-    fn memory_is_limited_by_the_header() {
-        let (mut header, mut base) = sample();
-        header.level = 11;
-        header.flags = 0;
-        base.low_bits = 0;
-        let bytes = write(&header, &base, b"").unwrap();
-        let needed = decode_memory(&header);
-        assert_eq!(sample_count(&header), 4 + 4 * 2047 + 2047 * 2047);
-        let unchecked = Header {
-            level: 200,
-            ..header.clone()
-        };
-        assert_eq!(sample_count(&unchecked), u64::MAX);
-        match read(&bytes, &Limits::DEFAULT.with_max_memory(needed - 1)) {
-            Err(e @ Error::Memory { .. }) => {
-                let text = e.to_string();
-                assert!(text.contains("4198401 samples"), "{text}");
-            }
-            other => panic!("{other:?}"),
-        }
-        assert!(read(&bytes, &Limits::DEFAULT.with_max_memory(needed)).is_ok());
-        assert!(
-            read(&bytes, &Limits::DEFAULT).is_ok(),
-            "640 MiB is under 1 GiB"
-        );
-        header.level = 12;
-        let bytes = write(&header, &base, b"").unwrap();
-        assert!(matches!(
-            read(&bytes, &Limits::DEFAULT.with_max_samples(u64::MAX)),
-            Err(Error::Memory { .. })
-        ));
-    }
-
-    #[test]
-    fn absurd_sizes_are_refused() {
-        let (mut header, mut base) = sample();
-        header.level = 12;
-        header.base_faces = 1 << 20;
-        header.flags = 0;
-        base.low_bits = header.stream_params().base_bits;
-        let bytes = write(&header, &base, b"").unwrap();
-        assert!(matches!(
-            read(&bytes, &Limits::DEFAULT),
-            Err(Error::Limit { .. })
-        ));
-    }
-}
+mod tests;

@@ -1,0 +1,408 @@
+//! The base section's connectivity: the corners of the base faces, or the
+//! triangles of a split base, coded on both sides by the same state
+//! ([`FaceModel`], [`TriangleModel`]).
+//!
+//! **Faces** are coded corner by corner. Format version 1 codes each corner
+//! as the difference to the same corner of the previous face: in the
+//! grid-like base meshes of one square per part that difference is almost
+//! always 1, but not in the three quads of each base triangle in a
+//! simplifier's order. Version 2 first says whether the corner is a vertex
+//! not used before, coded then as the difference to the last new vertex of
+//! the same corner; else whether it is among the [`RECENT`] vertices used
+//! last, coded then by its place there; else it is the version 1
+//! difference. Faces that share vertices with the faces just before them
+//! (a base triangle's three quads, a grid's rows) then cost a few bits a
+//! corner (docs/format.md).
+//!
+//! **Triangles.** Version 3 first says whether the faces are a split
+//! triangle mesh ([`qm_lift::split_triangles`], the remesher's charts,
+//! [`split_of`]). Then it codes the triangles alone, each as an edge shared
+//! with the triangles before it (its place among the [`OPEN`] edges, most
+//! recent first) and the vertex opposite, or as three vertices; the decoder
+//! splits them again. Such a base costs a few bits a triangle. Version 4
+//! flags the opposite vertex when it is the next one along the open edges
+//! beside the attached edge, which version 3 named by its distance back.
+//! What each version saved: docs/decisions/026-base-connectivity.md.
+
+use qm_ezw::{BitReader, BitWriter, Context};
+use qm_lift::unsplit;
+
+use super::numbers::IntModel;
+
+/// How many of the vertices used last a face corner (version 2 on) or a
+/// triangle's vertex (version 3, split) may name by its place among them.
+const RECENT: usize = 32;
+
+/// A place among the [`RECENT`] vertices, as a binary tree of contexts.
+#[derive(Clone)]
+struct PlaceTree([Context; RECENT]);
+
+impl Default for PlaceTree {
+    fn default() -> Self {
+        PlaceTree([Context::default(); RECENT])
+    }
+}
+
+impl PlaceTree {
+    fn put(&mut self, w: &mut BitWriter, i: usize) {
+        let mut node = 1;
+        for d in (0..RECENT.trailing_zeros()).rev() {
+            let bit = (i >> d) & 1 != 0;
+            w.encode(&mut self.0[node], bit);
+            node = 2 * node + usize::from(bit);
+        }
+    }
+
+    fn get(&mut self, r: &mut BitReader) -> Result<usize, String> {
+        let mut node = 1;
+        for _ in 0..RECENT.trailing_zeros() {
+            let bit = face_bit(r, &mut self.0[node])?;
+            node = 2 * node + usize::from(bit);
+        }
+        Ok(node - RECENT)
+    }
+}
+
+/// A flag of the faces (or triangles); the error is what a base section
+/// too short for them says.
+pub(super) fn face_bit(r: &mut BitReader, c: &mut Context) -> Result<bool, String> {
+    r.decode(c)
+        .map_err(|_| "it ends before its last face".to_string())
+}
+
+/// The face coder's state, the same on both sides: version 1's difference
+/// to the previous face's corner alone, or (versions 2 and 3, not split)
+/// new and recent vertices before it.
+pub(super) struct FaceModel {
+    /// Version 1: every corner a difference to the previous face's.
+    version1: bool,
+    /// Whether a corner is a vertex not used before, per corner.
+    new: [Context; 4],
+    /// A new vertex as the difference to the last new one, per corner.
+    new_step: Vec<IntModel>,
+    /// Whether a used vertex is among the recent ones, per corner.
+    recent: [Context; 4],
+    /// Its place there, per corner.
+    place: Vec<PlaceTree>,
+    /// Else the difference to the previous face's corner, per corner.
+    step: Vec<IntModel>,
+    used: Vec<bool>,
+    last_new: [i64; 4],
+    previous: [u32; 4],
+    /// The vertices used last, most recent first.
+    recents: Vec<u32>,
+}
+
+impl FaceModel {
+    pub(super) fn new(vertices: usize, version: u8) -> Self {
+        FaceModel {
+            version1: version == 1,
+            new: [Context::default(); 4],
+            new_step: vec![IntModel::new(); 4],
+            recent: [Context::default(); 4],
+            place: vec![PlaceTree::default(); 4],
+            step: vec![IntModel::new(); 4],
+            used: vec![false; vertices],
+            last_new: [-1; 4],
+            previous: [0; 4],
+            recents: Vec::with_capacity(RECENT + 1),
+        }
+    }
+
+    pub(super) fn put(&mut self, w: &mut BitWriter, face: &[u32; 4]) {
+        for (k, &v) in face.iter().enumerate() {
+            if self.version1 {
+                self.step[k].put(w, v as i64 - self.previous[k] as i64);
+                continue;
+            }
+            let new = !self.used[v as usize];
+            w.encode(&mut self.new[k], new);
+            let place = if new {
+                self.new_step[k].put(w, v as i64 - self.last_new[k]);
+                None
+            } else {
+                let place = self.recents.iter().position(|&u| u == v);
+                w.encode(&mut self.recent[k], place.is_some());
+                match place {
+                    Some(i) => self.place[k].put(w, i),
+                    None => self.step[k].put(w, v as i64 - self.previous[k] as i64),
+                }
+                place
+            };
+            self.used_now(k, v, new, place);
+        }
+        self.previous = *face;
+    }
+
+    /// Face `f`; the error says what is wrong with it.
+    pub(super) fn get(&mut self, r: &mut BitReader, f: usize) -> Result<[u32; 4], String> {
+        let vertices = self.used.len() as i64;
+        let mut face = [0u32; 4];
+        for (k, corner) in face.iter_mut().enumerate() {
+            let (mut new, mut place) = (false, None);
+            let v = if self.version1 {
+                self.previous[k] as i64 + self.step[k].get(r)?
+            } else if face_bit(r, &mut self.new[k])? {
+                new = true;
+                self.last_new[k] + self.new_step[k].get(r)?
+            } else if face_bit(r, &mut self.recent[k])? {
+                let i = self.place[k].get(r)?;
+                let Some(&u) = self.recents.get(i) else {
+                    let known = self.recents.len();
+                    return Err(format!("face {f} names recent vertex {i} of {known}"));
+                };
+                place = Some(i);
+                u as i64
+            } else {
+                self.previous[k] as i64 + self.step[k].get(r)?
+            };
+            if !(0..vertices).contains(&v) {
+                return Err(format!(
+                    "face {f} names vertex {v} of {vertices} base vertices"
+                ));
+            }
+            *corner = v as u32;
+            if !self.version1 {
+                self.used_now(k, *corner, new, place);
+            }
+        }
+        self.previous = face;
+        Ok(face)
+    }
+
+    /// After corner `k` of a face named `v`, new or at `place` among the
+    /// recent vertices (or, used but not recent, at neither).
+    fn used_now(&mut self, k: usize, v: u32, new: bool, place: Option<usize>) {
+        self.used[v as usize] = true;
+        if new {
+            self.last_new[k] = v as i64;
+        }
+        if let Some(i) = place {
+            self.recents.remove(i);
+        }
+        self.recents.insert(0, v);
+        self.recents.truncate(RECENT);
+    }
+}
+
+/// How many open edges a version 3 triangle may attach to, most recent
+/// first: the front of a traversal, bounded so that coding stays linear.
+const OPEN: usize = 256;
+
+/// Versions 3 and 4's coder of a split base's triangles, the same on both
+/// sides.
+/// A triangle either attaches to an open edge (one used by one triangle so
+/// far), by its place among them, the corner where the edge starts, and the
+/// vertex opposite; or it is three vertices. A vertex is new (then it is
+/// the next corner: corners are numbered in order of first use), else one
+/// of the [`RECENT`] corners used last by its place, else named outright.
+pub(super) struct TriangleModel {
+    attached: Context,
+    place: IntModel,
+    rotation: [Context; 2],
+    /// Version 4: whether an attached triangle's vertex is the end of the
+    /// open edge from the attached edge's end, or the start of the one
+    /// into its start (a triangle that closes a gap in the boundary).
+    beside: Option<[Context; 2]>,
+    /// Whether a vertex is new, for an attached triangle's and the others'.
+    new: [Context; 2],
+    recent: Context,
+    recent_place: PlaceTree,
+    named: IntModel,
+    /// Directed edges used once so far, most recent first.
+    open: Vec<(u32, u32)>,
+    /// The corners used last, most recent first.
+    recents: Vec<u32>,
+    /// Corners so far.
+    corners: u32,
+    /// Most corners the triangles may have.
+    most: u32,
+}
+
+impl TriangleModel {
+    pub(super) fn new(most: u32, version: u8) -> Self {
+        TriangleModel {
+            attached: Context::default(),
+            place: IntModel::new(),
+            rotation: [Context::default(); 2],
+            beside: (version >= 4).then_some([Context::default(); 2]),
+            new: [Context::default(); 2],
+            recent: Context::default(),
+            recent_place: PlaceTree::default(),
+            named: IntModel::new(),
+            open: Vec::with_capacity(OPEN + 3),
+            recents: Vec::with_capacity(RECENT + 3),
+            corners: 0,
+            most,
+        }
+    }
+
+    pub(super) fn put(&mut self, w: &mut BitWriter, t: &[u32; 3]) {
+        let attach = self.open.iter().enumerate().find_map(|(place, &(a, b))| {
+            (0..3)
+                .find(|&i| t[i] == b && t[(i + 1) % 3] == a)
+                .map(|i| (place, i))
+        });
+        w.encode(&mut self.attached, attach.is_some());
+        match attach {
+            Some((place, i)) => {
+                self.place.put(w, place as i64);
+                w.encode(&mut self.rotation[0], i == 0);
+                if i != 0 {
+                    w.encode(&mut self.rotation[1], i == 1);
+                }
+                let v = t[(i + 2) % 3];
+                let (after, before) = self.beside(place);
+                if let Some(beside) = &mut self.beside {
+                    for (k, candidate) in [after, before].into_iter().enumerate() {
+                        if let Some(c) = candidate {
+                            w.encode(&mut beside[k], v == c);
+                            if v == c {
+                                self.used(t);
+                                return;
+                            }
+                        }
+                    }
+                }
+                self.put_vertex(w, v, 0);
+            }
+            None => t.iter().for_each(|&v| self.put_vertex(w, v, 1)),
+        }
+        self.used(t);
+    }
+
+    fn put_vertex(&mut self, w: &mut BitWriter, v: u32, kind: usize) {
+        let new = v == self.corners;
+        w.encode(&mut self.new[kind], new);
+        if new {
+            self.corners += 1;
+            return;
+        }
+        let place = self.recents.iter().position(|&u| u == v);
+        w.encode(&mut self.recent, place.is_some());
+        match place {
+            Some(i) => self.recent_place.put(w, i),
+            None => self.named.put(w, (self.corners - 1 - v) as i64),
+        }
+    }
+
+    /// Triangle `t`; the error says what is wrong with it.
+    pub(super) fn get(&mut self, r: &mut BitReader, t: usize) -> Result<[u32; 3], String> {
+        let mut triangle = [0; 3];
+        if face_bit(r, &mut self.attached)? {
+            let place = self.place.get(r)?;
+            let Some(&(a, b)) = usize::try_from(place).ok().and_then(|p| self.open.get(p)) else {
+                let open = self.open.len();
+                return Err(format!(
+                    "triangle {t} attaches to open edge {place} of {open}"
+                ));
+            };
+            let i = if face_bit(r, &mut self.rotation[0])? {
+                0
+            } else if face_bit(r, &mut self.rotation[1])? {
+                1
+            } else {
+                2
+            };
+            triangle[i] = b;
+            triangle[(i + 1) % 3] = a;
+            let (after, before) = self.beside(place as usize);
+            let mut beside = None;
+            if let Some(contexts) = &mut self.beside {
+                for (k, candidate) in [after, before].into_iter().enumerate() {
+                    if let Some(c) = candidate
+                        && beside.is_none()
+                        && face_bit(r, &mut contexts[k])?
+                    {
+                        beside = Some(c);
+                    }
+                }
+            }
+            triangle[(i + 2) % 3] = match beside {
+                Some(c) => c,
+                None => self.get_vertex(r, t, 0)?,
+            };
+        } else {
+            for v in &mut triangle {
+                *v = self.get_vertex(r, t, 1)?;
+            }
+        }
+        self.used(&triangle);
+        Ok(triangle)
+    }
+
+    fn get_vertex(&mut self, r: &mut BitReader, t: usize, kind: usize) -> Result<u32, String> {
+        if face_bit(r, &mut self.new[kind])? {
+            if self.corners == self.most {
+                return Err(format!("triangle {t} has more than {} corners", self.most));
+            }
+            self.corners += 1;
+            return Ok(self.corners - 1);
+        }
+        if face_bit(r, &mut self.recent)? {
+            let i = self.recent_place.get(r)?;
+            return match self.recents.get(i) {
+                Some(&u) => Ok(u),
+                None => Err(format!(
+                    "triangle {t} names recent corner {i} of {}",
+                    self.recents.len()
+                )),
+            };
+        }
+        let back = self.named.get(r)?;
+        match u32::try_from(back).ok().filter(|&b| b < self.corners) {
+            Some(back) => Ok(self.corners - 1 - back),
+            None => Err(format!(
+                "triangle {t} names corner {back} back of {}",
+                self.corners
+            )),
+        }
+    }
+
+    /// For a triangle attached to open edge `place`, `a b`: the end of the
+    /// most recent open edge from `b` and the start of the most recent one
+    /// into `a` (the second left out when it is the first), the vertices
+    /// version 4 tries before the others.
+    fn beside(&self, place: usize) -> (Option<u32>, Option<u32>) {
+        if self.beside.is_none() {
+            return (None, None);
+        }
+        let (a, b) = self.open[place];
+        let after = self.open.iter().find(|e| e.0 == b && e.1 != a).map(|e| e.1);
+        let before = (self.open.iter())
+            .find(|e| e.1 == a && e.0 != b)
+            .map(|e| e.0)
+            .filter(|&x| Some(x) != after);
+        (after, before)
+    }
+
+    /// After triangle `t`: its corners are the most recent, and its edges
+    /// close the open edges they share or open anew.
+    fn used(&mut self, t: &[u32; 3]) {
+        for &v in t {
+            if let Some(i) = self.recents.iter().position(|&u| u == v) {
+                self.recents.remove(i);
+            }
+            self.recents.insert(0, v);
+        }
+        self.recents.truncate(RECENT);
+        for i in 0..3 {
+            let (a, b) = (t[i], t[(i + 1) % 3]);
+            match self.open.iter().position(|&e| e == (b, a)) {
+                Some(p) => {
+                    self.open.remove(p);
+                }
+                None => self.open.insert(0, (a, b)),
+            }
+        }
+        self.open.truncate(OPEN);
+    }
+}
+
+/// The triangles a version 3 base section sends instead of its faces, if
+/// they are a split.
+pub(super) fn split_of(faces: &[[u32; 4]], vertices: usize, version: u8) -> Option<Vec<[u32; 3]>> {
+    (version >= 3)
+        .then(|| unsplit(faces, vertices as u32))
+        .flatten()
+}

@@ -1,0 +1,314 @@
+//! The base section's values: each base vertex's level-0 value (its high
+//! part `value >> k`; the stream carries the low `k` bits), coded in vertex
+//! order as the difference to a [`Predictor`]'s prediction from the
+//! vertices before it; and how many low bits are noise to that prediction
+//! ([`noise_bits`]).
+//!
+//! **The prediction** is the parallelogram rule `b + d - c` over every face
+//! whose three other corners are known (averaged when there are several),
+//! else the mean of the known neighbours along face edges, else the
+//! previous vertex. On a grid numbered row by row each vertex after the
+//! first row and column has its parallelogram, and the residuals are about
+//! the size of the surface's second differences instead of its
+//! coordinates. In a version 3 split base the corners come first and have
+//! no such faces: a corner is predicted over the triangles instead, by the
+//! parallelogram across a known triangle's edge, else a known edge's
+//! midpoint; the midpoints and centres that follow are predicted over the
+//! quads, as the means of their edge's ends and of their triangle's
+//! corners. Means are floored (`div_euclid`), so both sides agree.
+
+use std::collections::HashMap;
+
+use super::connectivity::split_of;
+
+/// Faces around each vertex, as a compressed list.
+struct Incidence {
+    start: Vec<usize>,
+    faces: Vec<u32>,
+}
+
+impl Incidence {
+    fn new<const N: usize>(faces: &[[u32; N]], vertices: usize) -> Self {
+        let mut start = vec![0usize; vertices + 1];
+        for face in faces {
+            for &v in face {
+                start[v as usize + 1] += 1;
+            }
+        }
+        for i in 0..vertices {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let mut list = vec![0u32; start[vertices]];
+        for (f, face) in faces.iter().enumerate() {
+            for &v in face {
+                list[fill[v as usize]] = f as u32;
+                fill[v as usize] += 1;
+            }
+        }
+        Incidence { start, faces: list }
+    }
+
+    fn around(&self, v: usize) -> &[u32] {
+        &self.faces[self.start[v]..self.start[v + 1]]
+    }
+}
+
+/// What the values' prediction knows of the base: the quads, and in a
+/// version 3 split base its triangles.
+pub(super) struct Predictor<'a> {
+    faces: &'a [[u32; 4]],
+    incidence: Incidence,
+    split: Option<Split<'a>>,
+}
+
+/// A split base's triangles, over corners `0..corners`.
+struct Split<'a> {
+    triangles: &'a [[u32; 3]],
+    around: Incidence,
+    /// The vertex opposite each directed edge `a b` in its triangle.
+    opposite: HashMap<(u32, u32), u32>,
+    /// The first centre's id: triangle `t`'s is `first_centre + t`.
+    first_centre: usize,
+}
+
+/// Summed predictions and how many values they sum, for a floored mean.
+#[derive(Default)]
+struct Mean {
+    sum: [i64; 3],
+    count: i64,
+}
+
+impl Mean {
+    /// Adds `x`, a sum of `count` values.
+    fn add(&mut self, x: [i64; 3], count: i64) {
+        (0..3).for_each(|i| self.sum[i] += x[i]);
+        self.count += count;
+    }
+
+    fn get(&self) -> Option<[i64; 3]> {
+        (self.count > 0).then(|| self.sum.map(|s| s.div_euclid(self.count)))
+    }
+}
+
+impl<'a> Predictor<'a> {
+    pub(super) fn new(
+        faces: &'a [[u32; 4]],
+        vertices: usize,
+        triangles: Option<&'a [[u32; 3]]>,
+    ) -> Self {
+        let split = triangles.map(|triangles| {
+            let corners = triangles
+                .iter()
+                .flatten()
+                .max()
+                .map_or(0, |&v| v as usize + 1);
+            let opposite = (triangles.iter())
+                .flat_map(|t| (0..3).map(move |i| ((t[i], t[(i + 1) % 3]), t[(i + 2) % 3])))
+                .collect();
+            Split {
+                triangles,
+                around: Incidence::new(triangles, corners),
+                opposite,
+                first_centre: vertices - triangles.len(),
+            }
+        });
+        Predictor {
+            faces,
+            incidence: Incidence::new(faces, vertices),
+            split,
+        }
+    }
+
+    /// Prediction of vertex `v`'s value from the values of vertices `0..v`.
+    pub(super) fn predict(&self, v: usize, values: &[[i32; 3]]) -> [i64; 3] {
+        let over_triangles = self
+            .split
+            .as_ref()
+            .and_then(|s| s.predict(v, self.faces, values));
+        let predicted = over_triangles.or_else(|| self.over_quads(v, values));
+        predicted.unwrap_or(match v {
+            0 => [0; 3],
+            _ => values[v - 1].map(i64::from),
+        })
+    }
+
+    fn over_quads(&self, v: usize, values: &[[i32; 3]]) -> Option<[i64; 3]> {
+        let known = |u: u32| (u as usize) < v;
+        let value = |u: u32| values[u as usize].map(i64::from);
+        // Parallelogram predictions, and the edge neighbours as a fallback (an
+        // edge shared by two faces counts twice, which keeps the mean symmetric).
+        let (mut parallelograms, mut neighbours) = (Mean::default(), Mean::default());
+        for &f in self.incidence.around(v) {
+            let face = self.faces[f as usize];
+            let Some(k) = face.iter().position(|&u| u as usize == v) else {
+                continue;
+            };
+            let (b, c, d) = (face[(k + 1) % 4], face[(k + 2) % 4], face[(k + 3) % 4]);
+            if known(b) && known(c) && known(d) {
+                let (b, c, d) = (value(b), value(c), value(d));
+                parallelograms.add(std::array::from_fn(|i| b[i] + d[i] - c[i]), 1);
+            }
+            for u in [b, d].into_iter().filter(|&u| known(u)) {
+                neighbours.add(value(u), 1);
+            }
+        }
+        parallelograms.get().or(neighbours.get())
+    }
+}
+
+impl Split<'_> {
+    /// Vertex `v` over the triangles: a corner (below), or a centre, as the
+    /// quadratic through its triangle's corners and midpoints takes it,
+    /// `(4 (m_ab + m_bc + m_ca) - (a + b + c)) / 9`. A midpoint is left to
+    /// the quads, which take the mean of its edge's ends.
+    fn predict(&self, v: usize, faces: &[[u32; 4]], values: &[[i32; 3]]) -> Option<[i64; 3]> {
+        let corners = self.around.start.len() - 1;
+        if v < corners {
+            return self.corner(v, values);
+        }
+        let t = v.checked_sub(self.first_centre)?;
+        let value = |u: u32| values[u as usize].map(i64::from);
+        let mut quadratic = Mean::default();
+        for face in &faces[3 * t..3 * t + 3] {
+            let (a, m) = (value(face[0]), value(face[1]));
+            quadratic.add(std::array::from_fn(|i| 4 * m[i] - a[i]), 3);
+        }
+        quadratic.get()
+    }
+
+    /// Corner `v` over the triangles: the mean parallelogram across the
+    /// edges opposite it whose triangle beyond is known, else the mean
+    /// midpoint of the known edges opposite it, else its known neighbours.
+    fn corner(&self, v: usize, values: &[[i32; 3]]) -> Option<[i64; 3]> {
+        let known = |u: u32| (u as usize) < v;
+        let value = |u: u32| values[u as usize].map(i64::from);
+        let [mut parallelograms, mut midpoints, mut neighbours] = [(); 3].map(|_| Mean::default());
+        for &t in self.around.around(v) {
+            let t = self.triangles[t as usize];
+            let Some(k) = t.iter().position(|&u| u as usize == v) else {
+                continue;
+            };
+            let (a, b) = (t[(k + 1) % 3], t[(k + 2) % 3]);
+            for u in [a, b].into_iter().filter(|&u| known(u)) {
+                neighbours.add(value(u), 1);
+            }
+            if !(known(a) && known(b)) {
+                continue;
+            }
+            let (va, vb) = (value(a), value(b));
+            match self.opposite.get(&(b, a)).filter(|&&y| known(y)) {
+                Some(&y) => {
+                    let y = value(y);
+                    parallelograms.add(std::array::from_fn(|i| va[i] + vb[i] - y[i]), 1);
+                }
+                None => midpoints.add(std::array::from_fn(|i| va[i] + vb[i]), 2),
+            }
+        }
+        (parallelograms.get())
+            .or(midpoints.get())
+            .or(neighbours.get())
+    }
+}
+
+/// How many corners a split base of `triangles` has: its first vertices.
+pub(crate) fn corner_count(triangles: &[[u32; 3]]) -> usize {
+    triangles
+        .iter()
+        .flatten()
+        .max()
+        .map_or(0, |&c| c as usize + 1)
+}
+
+/// How far, in quantization steps, the encoder lets [`snap_split`] move a
+/// value: rounding the corners and the points between them apart is a step
+/// or so; a base whose midpoints and centres lie off the flat triangles (a
+/// split base at level 0 made otherwise than from the input's own
+/// triangles) is left alone.
+pub(crate) const SNAP_STEPS: i64 = 2;
+
+/// Sets the edge midpoints and centres of a split base (`faces`, the split
+/// of `triangles`) to their predictions, so that they cost next to nothing,
+/// unless one would move more than `most` steps in some coordinate (then
+/// nothing changes); whether it did. For a mesh of level 0 alone, whose
+/// base is all there is (the remesher's exact base, the input's own
+/// triangles): its midpoints and centres lie on the flat triangles between
+/// the corners, and their predictions are those points rounded from the
+/// rounded corners. Elsewhere the base values are lifted, not samples, and
+/// must stay as they are.
+pub(crate) fn snap_split(
+    faces: &[[u32; 4]],
+    triangles: &[[u32; 3]],
+    values: &mut [[i32; 3]],
+    most: i64,
+) -> bool {
+    let corners = corner_count(triangles);
+    let predictor = Predictor::new(faces, values.len(), Some(triangles));
+    let mut snapped = values.to_vec();
+    for v in corners..values.len() {
+        let p = predictor.predict(v, &snapped);
+        if (0..3).any(|i| (p[i] - values[v][i] as i64).abs() > most) {
+            return false;
+        }
+        snapped[v] = p.map(|x| x.clamp(i32::MIN.into(), i32::MAX.into()) as i32);
+    }
+    values.copy_from_slice(&snapped);
+    true
+}
+
+/// How many low bits of the `values` are noise to their prediction: the
+/// bits below the leading one of the median residual, but one (which the
+/// codes' contexts still predict a little), or, for a split base, all of
+/// them ([`SPLIT_KEEPS`]). A stream that carries these bits instead of the
+/// base section loses next to nothing on them, and a cut of it needs only
+/// as many as its details can use.
+pub(crate) fn noise_bits(
+    faces: &[[u32; 4]],
+    values: &[[i32; 3]],
+    version: u8,
+    implied: bool,
+) -> u32 {
+    let split = split_of(faces, values.len(), version);
+    let predictor = Predictor::new(faces, values.len(), split.as_deref());
+    let coded = coded_values(split.as_deref(), values.len(), implied);
+    let keeps = if split.is_some() { SPLIT_KEEPS } else { KEEPS };
+    median_residual_length(&predictor, &values[..coded]).saturating_sub(keeps)
+}
+
+/// The bit length of the median of `values`' prediction residuals, over
+/// all coordinates (0 for no values).
+pub(super) fn median_residual_length(predictor: &Predictor, values: &[[i32; 3]]) -> u32 {
+    let mut residuals: Vec<u64> = (0..values.len())
+        .flat_map(|v| {
+            let p = predictor.predict(v, values);
+            (0..3).map(move |i| (values[v][i] as i64 - p[i]).unsigned_abs())
+        })
+        .collect();
+    if residuals.is_empty() {
+        return 0;
+    }
+    let middle = residuals.len() / 2;
+    let median = *residuals.select_nth_unstable(middle).1;
+    64 - median.leading_zeros()
+}
+
+/// Bits of the median residual that [`noise_bits`] leaves in the base
+/// section: its leading one and the bit below it.
+pub(super) const KEEPS: u32 = 2;
+
+/// [`KEEPS`] for a split base (the remesher's charts, or an input's own
+/// triangles): its leading one alone. Such a base has hundreds to thousands
+/// of triangles, and its section is most of what a cut below 65 dB holds;
+/// the bit it no longer keeps arrives in the stream with the pass of its
+/// weight. Bases of one square per part, at most a few hundred bytes, lost
+/// PSNR with it, and keep [`KEEPS`] (docs/decisions/009-base-value-bits.md).
+pub(super) const SPLIT_KEEPS: u32 = 1;
+
+/// How many of a base's `vertices` have their values coded: with
+/// `implied` and a split base, its corners alone.
+pub(super) fn coded_values(split: Option<&[[u32; 3]]>, vertices: usize, implied: bool) -> usize {
+    match split {
+        Some(triangles) if implied => corner_count(triangles).min(vertices),
+        _ => vertices,
+    }
+}
