@@ -135,10 +135,12 @@ pub fn compress_probed(
             container::MAX_NORMAL_BITS as u32,
         ),
     ] {
+        // An encoder setting: the caller's parameter, not a limit to raise.
         if value > max {
-            return Err(Error::Limit {
+            return Err(Error::Setting {
                 what,
                 value: value as u64,
+                min: 0,
                 max: max as u64,
             });
         }

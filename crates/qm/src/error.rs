@@ -72,6 +72,14 @@ mod tests {
         let bits = Options::default().with_encode(EncodeOptions::DEFAULT.with_bits(40));
         let err = crate::encode(&tetrahedron(), &bits).unwrap_err();
         assert_eq!(err.kind(), ErrorKind::Parameter, "{err}");
+        // An encoder setting out of range is the caller's, not a limit.
+        let heavy = crate::Weighting {
+            bits_per_level: 3,
+            normal_bits: 0,
+        };
+        let heavy = Options::default().with_encode(EncodeOptions::DEFAULT.with_weighting(heavy));
+        let err = crate::encode(&tetrahedron(), &heavy).unwrap_err();
+        assert_eq!(err.kind(), ErrorKind::Parameter, "{err}");
         let missing = crate::read_mesh("no-such-folder/no-such-mesh.obj").unwrap_err();
         assert_eq!(missing.kind(), ErrorKind::File, "{missing}");
     }
