@@ -56,6 +56,7 @@ mod simplified;
 #[cfg(test)]
 mod tests;
 
+use qm_io::PolyMesh;
 use qm_lift::SemiRegularMesh;
 
 pub use budget::MAX_SAMPLES_PER_VERTEX;
@@ -70,7 +71,7 @@ pub use options::{
 };
 
 use crate::clean::clean;
-use crate::{PolyMesh, Result};
+use crate::error::Result;
 
 /// Remeshes `mesh` into a semi-regular quad mesh.
 ///
