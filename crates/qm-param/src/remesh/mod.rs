@@ -24,13 +24,12 @@
 //!
 //! Either way the samples are fitted to the surface in the least-squares
 //! sense (module `resample`), so that the quads straddle the surface rather
-//! than cut under its bends; the parts' patches are joined into one mesh
-//! and, with [`RemeshOptions::normal`] (the default), the samples are
-//! placed again, coarse to fine, where that is safe, on the ray from the
-//! codec's prediction along its frame normal, so that their details are
-//! normal (module `normal`, a normal mesh), and fitted again along those
-//! rays (module `finish`). The report says what was done
-//! ([`RemeshReport`]).
+//! than cut under its bends. The parts' patches are joined into one mesh
+//! (module `finish`) and, with [`RemeshOptions::normal`] (the default), the
+//! samples are placed again, coarse to fine, where that is safe, on the ray
+//! from the codec's prediction along its frame normal, so that their
+//! details are normal (module `normal`, a normal mesh), and fitted again
+//! along those rays. The report says what was done ([`RemeshReport`]).
 //!
 //! Holes stay holes: real boundaries are laid on the square's perimeter
 //! unglued, so no surface is added.
