@@ -58,7 +58,7 @@
 //! where such a patch also meets a single face at some edge. Everything is
 //! sorting and union-find, `O(n log n)` per round of step 6.
 //!
-//! [`topology`] counts a triangle mesh's vertices, edges, faces, boundary
+//! [`topology()`] counts a triangle mesh's vertices, edges, faces, boundary
 //! loops and genus (`V - E + F = 2 - 2g - b`) and checks it is manifold.
 //!
 //! The steps have modules: `triangulate` (1), `duplicates` (2 and 3),

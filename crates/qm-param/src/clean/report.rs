@@ -3,7 +3,7 @@
 
 use std::fmt;
 
-/// Counts of what [`clean`] changed. Face counts after step 1 are in
+/// Counts of what [`clean`](super::clean) changed. Face counts after step 1 are in
 /// triangles.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[non_exhaustive]

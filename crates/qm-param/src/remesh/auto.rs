@@ -26,7 +26,7 @@ use crate::{Error, PolyMesh, RemeshFailure, Result};
 /// from which [`BaseDomain::Auto`] does not try one square per part: its
 /// cut grows with them, and the map stretches along it without bound
 /// (docs/decisions/001-auto-base-domain.md).
-const MOST_CUT_LOOPS: i64 = 16;
+pub(super) const MOST_CUT_LOOPS: i64 = 16;
 
 /// How much better, in dB, the simplified base domain must measure for
 /// [`BaseDomain::Auto`] to take it over one square per part: its base

@@ -75,7 +75,8 @@ pub fn check_memory(
     Ok(())
 }
 
-/// `remeshed` with [`RemeshReport::memory`](super::RemeshReport::memory) at least its own estimate.
+/// `remeshed` with [`RemeshReport::memory`](super::RemeshReport::memory)
+/// at least its own estimate.
 pub(super) fn with_memory(mut remeshed: Remeshed, input_triangles: u64) -> Remeshed {
     let report = &mut remeshed.report;
     report.memory = report.memory.max(encode_memory(

@@ -21,8 +21,8 @@ const DENSITY_FLOOR: f64 = 0.3;
 /// documentation), with `k` the curvature. On a triangle mesh the curvature
 /// sits on the edges: each vertex gets the dihedral angles of its edges
 /// times their half-lengths over its area (the integral of the absolute mean
-/// curvature, doubled), smoothed over about one sample spacing. A floor of [`DENSITY_FLOOR`] times
-/// the mean curvature keeps flat parts sampled.
+/// curvature, doubled), smoothed over about one sample spacing. A floor of
+/// [`DENSITY_FLOOR`] times the mean curvature keeps flat parts sampled.
 pub(super) fn density(mesh: &TriMesh, topo: &cut::Topology, spacing: f64) -> Vec<f64> {
     let nv = mesh.positions.len();
     let p = |v: u32| mesh.positions[v as usize];

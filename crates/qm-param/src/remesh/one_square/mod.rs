@@ -28,16 +28,15 @@ use crate::{Error, RemeshFailure, Result};
 
 /// Components with fewer triangles are split at their edges' midpoints
 /// (the same surface) until they have at least this many. A chart of a few
-/// triangles cannot reach the square's corners, and its map folds: the
-/// four-triangle splinters of a scanned dragon mapped with stretches of
-/// 1e7 to 2e8, and grew to 144 base quads for the gluing.
+/// triangles cannot reach the square's corners, and its map folds
+/// (docs/decisions/020-small-parts.md).
 const SMALL_PART: usize = 64;
 
 /// Squares larger than a component's share of the samples at this level are
 /// not tried for it, neither as a larger size nor for an extra cut. A part
 /// that small (a splinter, a button) is sampled beyond its share at any
-/// level the rest of the mesh takes (the development models take 4 to 6),
-/// and a larger square only adds samples and base quads to it.
+/// level the rest of the mesh takes, and a larger square only adds samples
+/// and base quads to it (docs/decisions/020-small-parts.md).
 const PART_LEVEL: u32 = 3;
 
 /// Remeshes each component onto one square (the first design).

@@ -1,6 +1,7 @@
-//! Remeshing through a simplified base domain ([`BaseDomain::Charts`],
-//! MAPS): each part simplified to a coarse base of triangles, the input
-//! mapped onto it, and the base's quads sampled.
+//! Remeshing through a simplified base domain
+//! ([`BaseDomain::Charts`](crate::remesh::BaseDomain::Charts), MAPS): each
+//! part simplified to a coarse base of triangles, the input mapped onto it,
+//! and the base's quads sampled.
 //!
 //! In order, after the clean-up: the level and each part's base for it
 //! (module `bases`, simplification by module `simplify`); each part charted

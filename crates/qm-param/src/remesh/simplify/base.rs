@@ -27,8 +27,9 @@ pub struct Base {
     pub noisy_creases: bool,
 }
 
-/// What [`simplify_part`](super::simplify_part) made: the base, and the bases passed through at
-/// the checkpoints asked for (count asked, base), largest first.
+/// What [`simplify_part`](super::simplify_part) made: the base, and the
+/// bases passed through at the checkpoints asked for (count asked, base),
+/// largest first.
 pub struct Simplified {
     pub base: Base,
     pub passed: Vec<(usize, Base)>,

@@ -33,8 +33,8 @@ const MIN_CREASE_LENGTH: f64 = 0.5;
 
 /// A turn of a crease line sharper than this (in degrees, 0 straight on)
 /// ends it where a part's crease lines are taken for scanner noise (see
-/// [`simplify_part`](super::simplify_part)). Such lines zigzag, where a machined crease runs
-/// nearly straight (docs/decisions/005-noisy-creases.md).
+/// [`simplify_part`](super::simplify_part)). Such lines zigzag, where a
+/// machined crease runs nearly straight (docs/decisions/005-noisy-creases.md).
 const NOISE_TURN_DEGREES: f64 = 60.0;
 
 /// Crease lines other than clean ones (see [`CLEAN_CREASE_CV`]) may end at

@@ -21,20 +21,16 @@
 //! vertices on one side of a feature line stay on that side.
 //!
 //! The cost of a removal is the quadric error of the region merged into `u`
-//! (Garland and Heckbert, module `quadric`), plus [`AREA_WEIGHT`] times the area of `v`'s ring
-//! (MAPS's area term, which keeps the base triangles of similar size on flat
-//! parts), divided by the worst shape of the fan's triangles. A fan
-//! triangle below [`MIN_QUALITY`] is not made; a simplification stuck at
-//! more than [`STUCK`] times its target goes on with lower bounds where it
-//! has removed nothing yet.
+//! (Garland and Heckbert, module `quadric`), plus `AREA_WEIGHT` times the
+//! area of `v`'s ring (MAPS's area term, which keeps the base triangles of
+//! similar size on flat parts), divided by the worst shape of the fan's
+//! triangles (module `plan`). A fan triangle below `MIN_QUALITY` is not
+//! made; a simplification stuck at more than `STUCK` times its target goes
+//! on with lower bounds where it has removed nothing yet (module `run`).
 //!
 //! The steps have modules: the simplifier's state (`simplifier`), its set-up
 //! and feature lines (`creases`), a removal planned (`plan`) and made
 //! (`collapse`), and the run of removals (`run`).
-//!
-//! [`AREA_WEIGHT`]: plan::AREA_WEIGHT
-//! [`MIN_QUALITY`]: simplifier::MIN_QUALITY
-//! [`STUCK`]: run::STUCK
 
 mod base;
 mod collapse;
@@ -65,9 +61,9 @@ pub fn simplify(mesh: &TriMesh, target: usize) -> Base {
 /// Simplifies `mesh` (one cleaned component) towards `target` base
 /// triangles, and where that is stuck at more than [`STUCK`] times
 /// `target`, again with crease lines taken for scanner noise: ended at
-/// their turns sharper than
-/// [`NOISE_TURN_DEGREES`](creases::NOISE_TURN_DEGREES), so that the short
-/// zigzag pieces are dropped. The base with fewer triangles is kept.
+/// their turns sharper than `NOISE_TURN_DEGREES` (module `creases`), so
+/// that the short zigzag pieces are dropped. The base with fewer triangles
+/// is kept.
 ///
 /// A scan's creases are mostly noise, and they hold base vertices that the
 /// simplification cannot remove along them (a side of one triangle, the
