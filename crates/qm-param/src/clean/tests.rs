@@ -1,3 +1,7 @@
+//! Tests of the clean-up: each step on small hand-made meshes (polygons,
+//! seams, non-manifold edges and vertices, opposite and duplicate faces,
+//! Möbius strips and Klein bottles), the bundled models, and a timing.
+
 use std::collections::HashMap;
 
 use qm_lift::glam::DVec3;

@@ -1,3 +1,7 @@
+//! Tests of the simplifier: crease lines (noisy, budgeted, clean), a ring
+//! no fan fills, and a sphere simplified to its target with every vertex
+//! mapped and the bases passed through kept.
+
 use qm_lift::glam::{DVec2, DVec3};
 
 use super::ring::edge_key;
