@@ -1,8 +1,10 @@
 //! The `qm` command line: compress, decompress and inspect `.qm` files, and
 //! measure how far two meshes are apart.
 //!
-//! Exit status: 0 on success, 1 on bad input (one line `error: ...` on
-//! stderr naming the file and the problem), 2 on bad usage.
+//! Exit status: 0 on success; on failure one line `error: ...` on stderr
+//! naming the file and the problem, and a status saying whose fault it is
+//! (`output::Failure::exit_code`): 1 the input or a file, 2 the arguments
+//! (clap's usage errors too), 3 a limit the caller may raise, 4 a bug.
 
 /// `println!` without its panic: where stdout is closed early (`qm info
 /// x.qm | head -3`) the process ends quietly, as `head` expects, and any
@@ -21,16 +23,18 @@ macro_rules! note {
     }};
 }
 
+mod inspect;
 mod output;
+mod parse;
 mod serve;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
-use qm::codec::container;
 
 use output::{Failure, Progress, check_output, default_output, write_atomic};
+use parse::{level_choice, memory_size, non_negative, on_off, seconds};
 
 #[derive(Parser)]
 #[command(
@@ -392,14 +396,14 @@ fn main() -> ExitCode {
             input,
             levels,
             json,
-        } => info(&input, levels, json),
+        } => inspect::info(&input, levels, json),
         Command::Distance {
             a,
             b,
             json,
             samples,
             seed,
-        } => distance(&a, &b, json, samples, seed),
+        } => inspect::distance(&a, &b, json, samples, seed),
         Command::Serve {
             path,
             port,
@@ -423,72 +427,6 @@ fn main() -> ExitCode {
             ExitCode::from(failure.exit_code())
         }
     }
-}
-
-/// `on` or `off`.
-fn on_off(value: &str) -> Result<bool, String> {
-    match value {
-        "on" => Ok(true),
-        "off" => Ok(false),
-        _ => Err("expected on or off".into()),
-    }
-}
-
-/// `auto`, `finest` or a level number.
-fn level_choice(value: &str) -> Result<qm::LevelChoice, String> {
-    match value {
-        "auto" => Ok(qm::LevelChoice::Auto),
-        "finest" => Ok(qm::LevelChoice::Finest),
-        _ => match value.parse::<u32>() {
-            Ok(level) if level <= qm::lift::MAX_LEVEL => Ok(qm::LevelChoice::Fixed(level)),
-            _ => Err(format!(
-                "expected auto, finest or a level from 0 to {}",
-                qm::lift::MAX_LEVEL
-            )),
-        },
-    }
-}
-
-/// A finite number, 0 or more.
-fn non_negative(value: &str) -> Result<f64, String> {
-    match value.trim().parse::<f64>() {
-        Ok(x) if x.is_finite() && x >= 0.0 => Ok(x),
-        _ => Err("expected a finite number, 0 or more".into()),
-    }
-}
-
-/// A time in seconds, more than 0 and at most an hour.
-fn seconds(value: &str) -> Result<f64, String> {
-    match value.trim().parse::<f64>() {
-        Ok(s) if s > 0.0 && s <= 3600.0 => Ok(s),
-        _ => Err("expected seconds, more than 0 and at most 3600".into()),
-    }
-}
-
-/// A memory size: bytes, or a number with K, M, G or T (powers of 1024;
-/// `MiB`, `GB` and the like mean the same), e.g. `512M`, `1.5G`.
-fn memory_size(value: &str) -> Result<u64, String> {
-    let text = value.trim();
-    let split = text
-        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
-        .unwrap_or(text.len());
-    let (number, unit) = text.split_at(split);
-    let shift = match unit.trim().to_ascii_lowercase().as_str() {
-        "" | "b" => 0,
-        "k" | "kb" | "kib" => 10,
-        "m" | "mb" | "mib" => 20,
-        "g" | "gb" | "gib" => 30,
-        "t" | "tb" | "tib" => 40,
-        _ => return Err(format!("unknown unit {unit:?} (use K, M, G or T)")),
-    };
-    let x: f64 = number
-        .parse()
-        .map_err(|_| format!("{value:?} is not a size such as 512M or 2G"))?;
-    let bytes = x * (1u64 << shift) as f64;
-    if !(bytes.is_finite() && (1.0..1.8e19).contains(&bytes)) {
-        return Err(format!("{value:?} is not a size between 1 byte and 16 EiB"));
-    }
-    Ok(bytes as u64)
 }
 
 fn compress(
@@ -714,210 +652,4 @@ fn gltf(
         );
     }
     Ok(())
-}
-
-/// What `qm info` reports.
-#[derive(serde::Serialize)]
-struct Info {
-    file: String,
-    total_bytes: usize,
-    header_bytes: usize,
-    base_bytes: usize,
-    stream_bytes: usize,
-    version: u8,
-    bits: u8,
-    level: u8,
-    passes: u8,
-    planes: u8,
-    update: String,
-    weight_bits: u8,
-    normal_bits: u8,
-    frames: bool,
-    parent_frames_from: Option<u32>,
-    base_vertices: u32,
-    base_faces: u32,
-    base_low_bits_in_stream: u32,
-
-    holds: Vec<[u32; 2]>,
-    vertices: u64,
-    faces: u64,
-    bbox_min: [f64; 3],
-    step: f64,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    levels: Option<Vec<PrefixRow>>,
-}
-
-/// One row of `qm info --levels`: what the prefix ending at a pass decodes to.
-#[derive(serde::Serialize)]
-struct PrefixRow {
-    bytes: usize,
-    passes: u32,
-    level: u32,
-    vertices: usize,
-    triangles: u64,
-    error: f64,
-    psnr: f64,
-}
-
-impl From<qm::PrefixRow> for PrefixRow {
-    fn from(r: qm::PrefixRow) -> Self {
-        PrefixRow {
-            bytes: r.bytes,
-            passes: r.passes,
-            level: r.level,
-            vertices: r.vertices,
-            triangles: r.triangles,
-            error: r.error,
-            psnr: r.psnr_db,
-        }
-    }
-}
-
-fn info(input: &Path, levels: bool, json: bool) -> Result<(), Failure> {
-    let data = std::fs::read(input).map_err(|e| Failure::about(input, e))?;
-    // Describing a file allocates only its base mesh.
-    let limits = qm::Limits::DEFAULT.with_max_memory(u64::MAX);
-    let c = container::read(&data, &limits).map_err(|e| Failure::about(input, e))?;
-    let h = &c.header;
-    let base = qm::lift::BaseMesh::new(h.base_vertices, c.base.faces.clone())
-        .map_err(|e| Failure::about(input, qm::codec::Error::from(e)))?;
-    let n = 1u64 << h.level;
-    let faces = h.base_faces as u64;
-    let update = qm::UpdateRule::from_code(h.update).map_or("unknown".into(), |u| format!("{u:?}"));
-    let levels = if levels {
-        let rows = qm::prefix_table(&data, &qm::DecodeOptions::DEFAULT)
-            .map_err(|e| Failure::about(input, e))?;
-        Some(rows.into_iter().map(PrefixRow::from).collect())
-    } else {
-        None
-    };
-    let info = Info {
-        file: input.display().to_string(),
-        total_bytes: data.len(),
-        header_bytes: c.header_bytes,
-        base_bytes: c.base_bytes,
-        stream_bytes: c.stream.len(),
-        version: data[4],
-        bits: h.bits,
-        level: h.level,
-        passes: h.passes,
-        planes: h.planes,
-        update,
-        weight_bits: h.weight_bits,
-        normal_bits: h.normal_bits,
-        frames: h.frames > 0,
-        parent_frames_from: h.parent_frames_from(),
-        base_vertices: h.base_vertices,
-        base_faces: h.base_faces,
-        base_low_bits_in_stream: c.base.low_bits,
-        holds: h.holds.clone(),
-        vertices: base.sample_count(h.level as u32),
-        faces: faces * n * n,
-        bbox_min: h.origin,
-        step: h.step,
-        levels,
-    };
-    if json {
-        out!(
-            "{}",
-            serde_json::to_string_pretty(&info).expect("plain data serializes")
-        );
-    } else {
-        let value = serde_json::to_value(&info).expect("plain data serializes");
-        for (key, v) in value.as_object().expect("a struct is an object") {
-            if key != "levels" {
-                out!(
-                    "{key:>18}: {}",
-                    v.as_str().map_or(v.to_string(), str::to_string)
-                );
-            }
-        }
-        if let Some(rows) = &info.levels {
-            out!("\nwhat each prefix decodes to (level auto, estimated error):");
-            out!(
-                "{:>10} {:>6} {:>5} {:>10} {:>11} {:>11} {:>8}",
-                "bytes",
-                "passes",
-                "level",
-                "vertices",
-                "triangles",
-                "rms",
-                "psnr dB"
-            );
-            for r in rows {
-                out!(
-                    "{:>10} {:>6} {:>5} {:>10} {:>11} {:>11.3e} {:>8.2}",
-                    r.bytes,
-                    r.passes,
-                    r.level,
-                    r.vertices,
-                    r.triangles,
-                    r.error,
-                    r.psnr
-                );
-            }
-        }
-    }
-    Ok(())
-}
-
-fn distance(a: &Path, b: &Path, json: bool, samples: usize, seed: u64) -> Result<(), Failure> {
-    use qm::param::distance::{DistanceOptions, Side};
-
-    let mesh_a = qm::read_mesh(a).map_err(|e| Failure::about(a, e))?;
-    let mesh_b = qm::read_mesh(b).map_err(|e| Failure::about(b, e))?;
-    let options = DistanceOptions::DEFAULT
-        .with_samples(samples)
-        .with_seed(seed);
-    let report = qm::param::distance(&mesh_a, &mesh_b, &options).map_err(|e| {
-        let path = match e {
-            qm::param::Error::NoFaces { mesh: Side::B }
-            | qm::param::Error::ZeroArea { mesh: Side::B }
-            | qm::param::Error::MissingVertex { mesh: Side::B, .. }
-            | qm::param::Error::NonFinite { mesh: Side::B, .. } => b,
-            _ => a,
-        };
-        Failure::about(path, qm::Error::from(e))
-    })?;
-    if json {
-        out!(
-            "{}",
-            serde_json::to_string_pretty(&report).expect("plain data serializes")
-        );
-    } else {
-        let side = |name: &str, s: &qm::param::OneSided| {
-            out!(
-                "{name:>10}: rms {:.6e}, mean {:.6e}, max {:.6e} ({} samples)",
-                s.rms,
-                s.mean,
-                s.max,
-                s.samples
-            );
-        };
-        out!("{:>10}: {:.6e}", "rms", report.rms);
-        out!("{:>10}: {:.6e}", "mean", report.mean);
-        out!("{:>10}: {:.6e}", "hausdorff", report.hausdorff);
-        out!("{:>10}: {:.3} dB", "psnr", report.psnr_db);
-        out!("{:>10}: {:.6e}", "diag", report.diag);
-        side("A -> B", &report.a_to_b);
-        side("B -> A", &report.b_to_a);
-    }
-    Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::memory_size;
-
-    #[test]
-    fn memory_sizes_parse_with_binary_units() {
-        assert_eq!(memory_size("1024"), Ok(1024));
-        assert_eq!(memory_size("512M"), Ok(512 << 20));
-        assert_eq!(memory_size("512MiB"), Ok(512 << 20));
-        assert_eq!(memory_size("1.5G"), Ok(3 << 29));
-        assert_eq!(memory_size("2 gb"), Ok(2 << 30));
-        for bad in ["", "G", "12Q", "-1M", "0", "1e99", "nan"] {
-            assert!(memory_size(bad).is_err(), "{bad:?}");
-        }
-    }
 }
