@@ -38,6 +38,9 @@
 //! - `memory [--max-level L] [MESH[:DOMAIN] ...]`: peak memory of compress
 //!   against the memory model's estimate, on soups, fans, a plane at levels
 //!   6 to `L` and the bunny. See [`memory`].
+//! - `scale [--sizes 0.5M,2M,8M] [--max-memory SIZE] [--no-draco]`: time,
+//!   peak memory, estimate, lossless PSNR and bytes at 65 and 78 dB against
+//!   Draco on dense scan-like meshes. See [`scale`].
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -54,6 +57,7 @@ mod memory;
 mod plot;
 mod rd;
 mod remesh_bench;
+mod scale;
 mod stress;
 mod valence;
 
@@ -73,6 +77,7 @@ fn main() -> ExitCode {
         Some("valence") => valence::run(&args[1..]),
         Some("decode-time") => decode_time::run(&args[1..]),
         Some("memory") => memory::run(&args[1..]),
+        Some("scale") => scale::run(&args[1..]),
         _ => Err("usage: cargo xtask pass-table [MESH ...]\n       \
                   cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]\n       \
                   cargo xtask remesh-bench [--level L] [--normal-remesh on|off] [--runs N] [--against XTASK] [MESH ...]\n       \
@@ -83,7 +88,8 @@ fn main() -> ExitCode {
                   cargo xtask stress DIR\n       \
                   cargo xtask valence [--max N]\n       \
                   cargo xtask decode-time FILE.qm [--runs N] [--bytes N ...]\n       \
-                  cargo xtask memory [--max-level L] [MESH[:DOMAIN] ...]"
+                  cargo xtask memory [--max-level L] [MESH[:DOMAIN] ...]\n       \
+                  cargo xtask scale [--sizes 0.5M,2M,8M] [--max-memory SIZE] [--no-draco]"
             .to_string()),
     };
     match result {

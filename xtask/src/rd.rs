@@ -110,14 +110,14 @@ pub fn mesh_files(dir: &Path) -> Result<Vec<PathBuf>, String> {
 }
 
 /// Draco's two command-line tools.
-struct Draco {
+pub(crate) struct Draco {
     encoder: PathBuf,
     decoder: PathBuf,
 }
 
 /// Finds the Draco tools: `--draco` names their directory or the encoder
 /// (the decoder beside it); without it they are looked up on `PATH`.
-fn find_draco(path: Option<&Path>) -> Result<Draco, String> {
+pub(crate) fn find_draco(path: Option<&Path>) -> Result<Draco, String> {
     let (encoder, decoder) = match path {
         Some(p) if p.is_dir() => (p.join("draco_encoder"), p.join("draco_decoder")),
         Some(p) => (p.to_path_buf(), p.with_file_name("draco_decoder")),
@@ -322,7 +322,7 @@ pub fn budgets(first: usize, last: usize, count: usize) -> Vec<usize> {
 /// Draco is given the same surface qm sees: positions and faces only (no
 /// texture coordinates or normals to pay for), polygons fanned into
 /// triangles, since its mesh coder takes triangles.
-fn run_draco(
+pub(crate) fn run_draco(
     draco: &Draco,
     name: &str,
     input: &PolyMesh,
