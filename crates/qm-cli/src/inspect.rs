@@ -162,10 +162,18 @@ pub fn distance(a: &Path, b: &Path, json: bool, samples: usize, seed: u64) -> Re
         .with_seed(seed);
     let report = qm::param::distance(&mesh_a, &mesh_b, &options).map_err(|e| {
         let path = match e {
-            qm::param::Error::NoFaces { mesh: Side::B }
+            qm::param::Error::NoFaces {
+                mesh: Some(Side::B),
+            }
             | qm::param::Error::ZeroArea { mesh: Side::B }
-            | qm::param::Error::MissingVertex { mesh: Side::B, .. }
-            | qm::param::Error::NonFinite { mesh: Side::B, .. } => b,
+            | qm::param::Error::MissingVertex {
+                mesh: Some(Side::B),
+                ..
+            }
+            | qm::param::Error::NonFinite {
+                mesh: Some(Side::B),
+                ..
+            } => b,
             _ => a,
         };
         Failure::about(path, qm::Error::from(e))

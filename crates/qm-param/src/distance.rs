@@ -391,7 +391,7 @@ struct Triangles<'a> {
 impl<'a> Triangles<'a> {
     fn new(mesh: &'a PolyMesh, side: Side) -> Result<Self> {
         if mesh.face_count() == 0 {
-            return Err(Error::NoFaces { mesh: side });
+            return Err(Error::NoFaces { mesh: Some(side) });
         }
         let positions = &mesh.positions[..];
         let fanned = mesh.faces().map(|f| f.len().saturating_sub(2)).sum();
@@ -403,14 +403,14 @@ impl<'a> Triangles<'a> {
             for &index in corners {
                 let Some(&p) = positions.get(index as usize) else {
                     return Err(Error::MissingVertex {
-                        mesh: side,
+                        mesh: Some(side),
                         face,
                         vertex: index,
                     });
                 };
                 if !p.is_finite() {
                     return Err(Error::NonFinite {
-                        mesh: side,
+                        mesh: Some(side),
                         vertex: index,
                     });
                 }
@@ -741,7 +741,9 @@ mod tests {
         let empty = PolyMesh::new();
         assert_eq!(
             distance(&empty, &good, &options(10)),
-            Err(Error::NoFaces { mesh: Side::A })
+            Err(Error::NoFaces {
+                mesh: Some(Side::A)
+            })
         );
         let flat = PolyMesh::from_faces(
             vec![DVec3::ZERO, DVec3::X, DVec3::splat(2.0) * DVec3::X],
@@ -756,7 +758,7 @@ mod tests {
         assert_eq!(
             distance(&good, &nan, &options(10)),
             Err(Error::NonFinite {
-                mesh: Side::B,
+                mesh: Some(Side::B),
                 vertex: 2
             })
         );
@@ -764,7 +766,7 @@ mod tests {
         assert_eq!(
             distance(&missing, &good, &options(10)),
             Err(Error::MissingVertex {
-                mesh: Side::A,
+                mesh: Some(Side::A),
                 face: 0,
                 vertex: 1
             })

@@ -13,9 +13,6 @@ use crate::distance::Side;
 #[derive(Debug, Clone, PartialEq, ThisError)]
 #[non_exhaustive]
 pub enum Error {
-    /// The mesh has no faces at all.
-    #[error("the mesh has no faces")]
-    Empty,
     /// A face is not a quad.
     #[error("not a quad mesh: face {face} has {corners} corners")]
     NotQuads { face: usize, corners: usize },
@@ -30,22 +27,26 @@ pub enum Error {
         "the quad mesh has no subdivision connectivity (it is not a quad-split of a coarser mesh); it needs remeshing"
     )]
     NoSubdivisionConnectivity,
-    /// A mesh given to [`crate::distance::distance`] has no faces.
-    #[error("mesh {mesh} has no faces")]
-    NoFaces { mesh: Side },
+    /// The mesh has no faces at all (`mesh` names which of the two given
+    /// to [`crate::distance::distance`]; `None` for the one mesh of any
+    /// other call).
+    #[error("{}has no faces", MeshName(*mesh))]
+    NoFaces { mesh: Option<Side> },
     /// A mesh given to [`crate::distance::distance`] has no area to sample.
     #[error("mesh {mesh} has no face of positive area")]
     ZeroArea { mesh: Side },
-    /// A face refers to a vertex the mesh does not have.
-    #[error("mesh {mesh}: face {face} refers to missing vertex {vertex}")]
+    /// A face refers to a vertex the mesh does not have (`mesh` as for
+    /// [`Error::NoFaces`]).
+    #[error("{}face {face} refers to missing vertex {vertex}", MeshPrefix(*mesh))]
     MissingVertex {
-        mesh: Side,
+        mesh: Option<Side>,
         face: usize,
         vertex: u32,
     },
-    /// A vertex used by a face has a NaN or infinite coordinate.
-    #[error("mesh {mesh}: vertex {vertex} is not finite")]
-    NonFinite { mesh: Side, vertex: u32 },
+    /// A vertex used by a face has a NaN or infinite coordinate (`mesh` as
+    /// for [`Error::NoFaces`]).
+    #[error("{}vertex {vertex} is not finite", MeshPrefix(*mesh))]
+    NonFinite { mesh: Option<Side>, vertex: u32 },
     /// [`crate::distance::DistanceOptions::samples`] is 0.
     #[error("the sample count must be at least 1")]
     NoSamples,
@@ -56,14 +57,6 @@ pub enum Error {
     /// position is not finite, or the mesh exceeds a limit of `qm-lift`.
     #[error("building the semi-regular mesh failed: {0}")]
     Lift(qm_lift::Error),
-    /// A face of the mesh given to [`crate::clean::clean`] refers to a vertex
-    /// the mesh does not have.
-    #[error("face {face} refers to missing vertex {vertex}")]
-    VertexOutOfRange { face: usize, vertex: u32 },
-    /// A vertex used by a face of the mesh given to [`crate::clean::clean`]
-    /// has a NaN or infinite coordinate.
-    #[error("vertex {vertex} is not finite")]
-    NonFiniteVertex { vertex: u32 },
     /// The remesher could not make a part of the mesh semi-regular.
     #[error("remeshing failed: {}{failure}", part.map_or(String::new(), |p| format!("{p} ")))]
     Remesh {
@@ -95,6 +88,30 @@ pub enum Error {
     /// A consistency check that this crate guarantees did not hold: a bug here.
     #[error("internal error in qm-param: {0}")]
     Internal(&'static str),
+}
+
+/// `the mesh ` or `mesh A `, for a message about one mesh or one of two.
+struct MeshName(Option<Side>);
+
+impl std::fmt::Display for MeshName {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.0 {
+            Some(side) => write!(f, "mesh {side} "),
+            None => f.write_str("the mesh "),
+        }
+    }
+}
+
+/// `mesh A: ` where one of two meshes is meant, nothing otherwise.
+struct MeshPrefix(Option<Side>);
+
+impl std::fmt::Display for MeshPrefix {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.0 {
+            Some(side) => write!(f, "mesh {side}: "),
+            None => Ok(()),
+        }
+    }
 }
 
 /// A part of the mesh: one connected component after clean-up.
@@ -208,8 +225,7 @@ impl Error {
     /// domain.
     pub fn kind(&self) -> ErrorKind {
         match self {
-            Error::Empty
-            | Error::NotQuads { .. }
+            Error::NotQuads { .. }
             | Error::UnusedVertex { .. }
             | Error::InvalidMesh(_)
             | Error::NoSubdivisionConnectivity
@@ -217,8 +233,6 @@ impl Error {
             | Error::ZeroArea { .. }
             | Error::MissingVertex { .. }
             | Error::NonFinite { .. }
-            | Error::VertexOutOfRange { .. }
-            | Error::NonFiniteVertex { .. }
             | Error::Remesh { .. } => ErrorKind::Data,
             Error::NoSamples => ErrorKind::Parameter,
             Error::TooManyVertices { .. } | Error::Memory { .. } => ErrorKind::Limit,

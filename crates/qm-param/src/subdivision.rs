@@ -92,7 +92,7 @@ pub fn detect_subdivision(mesh: &PolyMesh) -> Result<Detected> {
 /// The input as a validated quad mesh, the finest level of the hierarchy.
 fn fine_mesh(mesh: &PolyMesh) -> Result<QuadMesh> {
     if mesh.face_count() == 0 {
-        return Err(Error::Empty);
+        return Err(Error::NoFaces { mesh: None });
     }
     if mesh.positions.len() as u64 > MAX_SAMPLES {
         return Err(Error::TooManyVertices {

@@ -107,8 +107,8 @@ pub struct Cleaned {
 /// A mesh with no usable face gives no components, not an error.
 ///
 /// # Errors
-/// [`Error::VertexOutOfRange`] if a face refers to a missing vertex,
-/// [`Error::NonFiniteVertex`] if a used vertex is NaN or infinite.
+/// [`Error::MissingVertex`] if a face refers to a missing vertex,
+/// [`Error::NonFinite`] if a used vertex is NaN or infinite.
 pub fn clean(mesh: &PolyMesh) -> Result<Cleaned> {
     clean_with(mesh, true)
 }

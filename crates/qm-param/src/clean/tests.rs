@@ -490,12 +490,19 @@ fn hostile_inputs_do_not_panic() {
     let m = poly(&[[0.; 3]], &[[0, 1, 2]]);
     assert!(matches!(
         clean(&m),
-        Err(Error::VertexOutOfRange { face: 0, vertex: 1 })
+        Err(Error::MissingVertex {
+            mesh: None,
+            face: 0,
+            vertex: 1
+        })
     ));
     let m = poly(&[[0.; 3], [1., 0., 0.], [f64::NAN, 0., 0.]], &[[0, 1, 2]]);
     assert!(matches!(
         clean(&m),
-        Err(Error::NonFiniteVertex { vertex: 2 })
+        Err(Error::NonFinite {
+            mesh: None,
+            vertex: 2
+        })
     ));
     // Many faces on one edge, and a Klein-bottle-like tangle.
     let p: Vec<[f64; 3]> = (0..40)

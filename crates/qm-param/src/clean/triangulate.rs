@@ -15,8 +15,19 @@ pub(super) fn triangulate(mesh: &PolyMesh, report: &mut CleanReport) -> Result<V
     for (k, face) in mesh.faces().enumerate() {
         for &v in face {
             match mesh.positions.get(v as usize) {
-                None => return Err(Error::VertexOutOfRange { face: k, vertex: v }),
-                Some(p) if !p.is_finite() => return Err(Error::NonFiniteVertex { vertex: v }),
+                None => {
+                    return Err(Error::MissingVertex {
+                        mesh: None,
+                        face: k,
+                        vertex: v,
+                    });
+                }
+                Some(p) if !p.is_finite() => {
+                    return Err(Error::NonFinite {
+                        mesh: None,
+                        vertex: v,
+                    });
+                }
                 Some(_) => {}
             }
         }

@@ -260,7 +260,7 @@ fn rejects_what_it_cannot_use_with_clear_errors() {
 
     assert_eq!(
         detect_subdivision(&PolyMesh::new()).unwrap_err(),
-        Error::Empty
+        Error::NoFaces { mesh: None }
     );
 
     let (positions0, faces0) = cube();
