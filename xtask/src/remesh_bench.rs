@@ -17,13 +17,11 @@
 //! build's so that both meet the same machine, and a second table gives
 //! the ratio of the median remesh times and peaks, this build over that.
 
-use std::f64::consts::TAU;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
 use qm::PolyMesh;
-use qm::lift::glam::DVec3;
 
 /// Prefix of the names standing for a generated torus instead of a file.
 const TORUS: &str = "generated-torus-";
@@ -315,100 +313,6 @@ pub(crate) fn peak_kb() -> Option<u64> {
 
 /// A triangulated torus of `n x m` vertices with a fine relief.
 fn bumpy_torus(n: u32, m: u32) -> PolyMesh {
-    let mut positions = Vec::with_capacity((n * m) as usize);
-    for j in 0..m {
-        for i in 0..n {
-            let (u, v) = (i as f64 / n as f64 * TAU, j as f64 / m as f64 * TAU);
-            let r = 1.0 + 0.02 * (17.0 * u).sin() * (11.0 * v).cos();
-            positions.push(DVec3::new(
-                (3.0 + r * v.cos()) * u.cos(),
-                (3.0 + r * v.cos()) * u.sin(),
-                r * v.sin(),
-            ));
-        }
-    }
-    let id = |i: u32, j: u32| (j % m) * n + (i % n);
-    let mut faces = Vec::with_capacity(2 * (n * m) as usize);
-    for j in 0..m {
-        for i in 0..n {
-            faces.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            faces.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
-    PolyMesh::from_faces(positions, &faces)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn row(remesh_s: f64, peak_mb: f64) -> Row {
-        Row {
-            name: "m".into(),
-            vertices: "3".into(),
-            samples: "9".into(),
-            read_s: 0.01,
-            remesh_s,
-            peak_mb: Some(peak_mb),
-        }
-    }
-
-    #[test]
-    fn a_child_row_parses() {
-        let r = Row::parse("| stanford-bunny.obj | 35947 | 1049277 | 0.02 s | 2.38 s | 334 MB |");
-        let expected = Row {
-            name: "stanford-bunny.obj".into(),
-            vertices: "35947".into(),
-            samples: "1049277".into(),
-            read_s: 0.02,
-            remesh_s: 2.38,
-            peak_mb: Some(334.0),
-        };
-        assert_eq!(r, Some(expected.clone()));
-        let r = Row::parse("| stanford-bunny.obj | 35947 | 1049277 | 0.02 s | 2.38 s | ? MB |");
-        let unknown = Row {
-            peak_mb: None,
-            ..expected
-        };
-        assert_eq!(r, Some(unknown));
-        assert_eq!(
-            Row::parse("| mesh | input vertices | samples | read | remesh | peak memory |"),
-            None
-        );
-        assert_eq!(Row::parse("|---|---|---|---|---|---|"), None);
-    }
-
-    #[test]
-    fn the_child_row_parses_back() {
-        for peak_kb in [Some(342_016), None] {
-            let line = child_row("spot.obj", 2930, 10804, (0.0125, 1.5), peak_kb);
-            let r = Row::parse(&line).expect(&line);
-            assert_eq!((r.name.as_str(), r.vertices.as_str()), ("spot.obj", "2930"));
-            assert_eq!((r.read_s, r.remesh_s), (0.013, 1.5));
-            assert_eq!(r.peak_mb, peak_kb.map(|_| 334.0));
-        }
-    }
-
-    #[test]
-    fn flags_take_their_values_out() {
-        let mut args: Vec<String> = ["a.obj", "--runs", "3", "b.obj", "--level"]
-            .map(String::from)
-            .to_vec();
-        assert_eq!(take(&mut args, "--against", "x"), Ok(None));
-        assert_eq!(take(&mut args, "--runs", "a value"), Ok(Some("3".into())));
-        assert_eq!(args, ["a.obj", "b.obj", "--level"]);
-        assert_eq!(
-            take(&mut args, "--level", "a value"),
-            Err("--level needs a value".into())
-        );
-    }
-
-    #[test]
-    fn medians_of_odd_and_even_counts() {
-        let rows = [row(3.0, 10.0), row(1.0, 30.0), row(2.0, 20.0)];
-        let m = Row::median(&rows);
-        assert_eq!((m.remesh_s, m.peak_mb), (2.0, Some(20.0)));
-        let m = Row::median(&rows[..2]);
-        assert_eq!((m.remesh_s, m.peak_mb), (2.0, Some(20.0)));
-    }
+    let minor = |u: f64, v: f64| 1.0 + 0.02 * (17.0 * u).sin() * (11.0 * v).cos();
+    qm_shapes::poly(qm_shapes::torus(n, m, 3.0, minor))
 }
