@@ -1,5 +1,5 @@
 //! Test meshes, built in one place for the tests of every crate and for the
-//! xtask: tetrahedra, cubes, an octahedron and an L-shaped prism
+//! xtask: tetrahedra, a cube, an octahedron and an L-shaped prism
 //! ([`solids`]), UV spheres ([`spheres`]), tori ([`tori`]), cylinders
 //! ([`cylinders`]) and flat meshes: grids, a plane, a square, a fan, an
 //! n-gon ([`flat`]). Each returns a [`PolyMesh`], or positions with
