@@ -316,3 +316,78 @@ fn bumpy_torus(n: u32, m: u32) -> PolyMesh {
     let minor = |u: f64, v: f64| 1.0 + 0.02 * (17.0 * u).sin() * (11.0 * v).cos();
     qm_shapes::poly(qm_shapes::torus(n, m, 3.0, minor))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(remesh_s: f64, peak_mb: f64) -> Row {
+        Row {
+            name: "m".into(),
+            vertices: "3".into(),
+            samples: "9".into(),
+            read_s: 0.01,
+            remesh_s,
+            peak_mb: Some(peak_mb),
+        }
+    }
+
+    #[test]
+    fn a_child_row_parses() {
+        let r = Row::parse("| stanford-bunny.obj | 35947 | 1049277 | 0.02 s | 2.38 s | 334 MB |");
+        let expected = Row {
+            name: "stanford-bunny.obj".into(),
+            vertices: "35947".into(),
+            samples: "1049277".into(),
+            read_s: 0.02,
+            remesh_s: 2.38,
+            peak_mb: Some(334.0),
+        };
+        assert_eq!(r, Some(expected.clone()));
+        let r = Row::parse("| stanford-bunny.obj | 35947 | 1049277 | 0.02 s | 2.38 s | ? MB |");
+        let unknown = Row {
+            peak_mb: None,
+            ..expected
+        };
+        assert_eq!(r, Some(unknown));
+        assert_eq!(
+            Row::parse("| mesh | input vertices | samples | read | remesh | peak memory |"),
+            None
+        );
+        assert_eq!(Row::parse("|---|---|---|---|---|---|"), None);
+    }
+
+    #[test]
+    fn the_child_row_parses_back() {
+        for peak_kb in [Some(342_016), None] {
+            let line = child_row("spot.obj", 2930, 10804, (0.0125, 1.5), peak_kb);
+            let r = Row::parse(&line).expect(&line);
+            assert_eq!((r.name.as_str(), r.vertices.as_str()), ("spot.obj", "2930"));
+            assert_eq!((r.read_s, r.remesh_s), (0.013, 1.5));
+            assert_eq!(r.peak_mb, peak_kb.map(|_| 334.0));
+        }
+    }
+
+    #[test]
+    fn flags_take_their_values_out() {
+        let mut args: Vec<String> = ["a.obj", "--runs", "3", "b.obj", "--level"]
+            .map(String::from)
+            .to_vec();
+        assert_eq!(take(&mut args, "--against", "x"), Ok(None));
+        assert_eq!(take(&mut args, "--runs", "a value"), Ok(Some("3".into())));
+        assert_eq!(args, ["a.obj", "b.obj", "--level"]);
+        assert_eq!(
+            take(&mut args, "--level", "a value"),
+            Err("--level needs a value".into())
+        );
+    }
+
+    #[test]
+    fn medians_of_odd_and_even_counts() {
+        let rows = [row(3.0, 10.0), row(1.0, 30.0), row(2.0, 20.0)];
+        let m = Row::median(&rows);
+        assert_eq!((m.remesh_s, m.peak_mb), (2.0, Some(20.0)));
+        let m = Row::median(&rows[..2]);
+        assert_eq!((m.remesh_s, m.peak_mb), (2.0, Some(20.0)));
+    }
+}
