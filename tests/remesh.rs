@@ -29,31 +29,9 @@ fn remeshed(input: &PolyMesh) -> PolyMesh {
     PolyMesh::from_faces(r.mesh.positions().to_vec(), &layout.quads(layout.level()))
 }
 
-/// A triangulated torus (genus 1), `n x m` vertices.
+/// A triangulated torus (genus 1), `n x m` vertices, radii 2 and 1.
 fn torus(n: u32, m: u32) -> PolyMesh {
-    let mut positions = Vec::new();
-    for j in 0..m {
-        for i in 0..n {
-            let (u, v) = (
-                i as f64 / n as f64 * std::f64::consts::TAU,
-                j as f64 / m as f64 * std::f64::consts::TAU,
-            );
-            positions.push(DVec3::new(
-                (2.0 + v.cos()) * u.cos(),
-                (2.0 + v.cos()) * u.sin(),
-                v.sin(),
-            ));
-        }
-    }
-    let id = |i: u32, j: u32| (j % m) * n + (i % n);
-    let mut faces = Vec::new();
-    for j in 0..m {
-        for i in 0..n {
-            faces.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            faces.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
-    PolyMesh::from_faces(positions, &faces)
+    qm_shapes::poly(qm_shapes::torus(n, m, 2.0, |_, _| 1.0))
 }
 
 #[test]
@@ -221,10 +199,8 @@ fn a_faceted_input_is_sent_as_itself() {
 #[test]
 fn every_unit_codes_alike() {
     let tetrahedron = |s: f64| {
-        let p = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z]
-            .map(|p| p * s)
-            .to_vec();
-        PolyMesh::from_faces(p, &[[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2]])
+        let (p, faces) = qm_shapes::tetrahedron_inward();
+        PolyMesh::from_faces(p.into_iter().map(|p| p * s).collect(), &faces)
     };
     let options = DistanceOptions::DEFAULT.with_samples(20_000);
     let code = |s: f64| {
@@ -255,32 +231,8 @@ fn every_unit_codes_alike() {
 /// `cargo xtask valence` shows near-linear (a hub of 500 took 170 s).
 #[test]
 fn high_valence_hubs_remesh() {
-    let ring = |n: u32, z: f64| -> Vec<DVec3> {
-        (0..n)
-            .map(|i| {
-                let a = std::f64::consts::TAU * f64::from(i) / f64::from(n);
-                DVec3::new(a.cos(), a.sin(), z)
-            })
-            .collect()
-    };
-    let n = 300;
-    let mut positions = ring(n, 0.0);
-    positions.extend(ring(n, 2.0));
-    positions.extend([DVec3::ZERO, DVec3::new(0.0, 0.0, 2.0)]);
-    let (low, high) = (2 * n, 2 * n + 1);
-    let mut faces = Vec::new();
-    for i in 0..n {
-        let j = (i + 1) % n;
-        faces.extend([
-            [i, j, n + j],
-            [i, n + j, n + i],
-            [low, j, i],
-            [high, n + i, n + j],
-        ]);
-    }
-    let cylinder = PolyMesh::from_faces(positions, &faces);
-    let mut polygon = PolyMesh::from_faces::<3>(ring(1000, 0.0), &[]);
-    polygon.push_face(&(0..1000).collect::<Vec<u32>>());
+    let cylinder = qm_shapes::poly(qm_shapes::cylinder_ring_by_ring(300));
+    let polygon = qm_shapes::ngon(1000);
     for (name, input) in [("cylinder", cylinder), ("1000-gon", polygon)] {
         let out = remeshed(&input);
         let d = distance(&input, &out, &DistanceOptions::DEFAULT.with_samples(20_000)).unwrap();

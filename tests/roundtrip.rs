@@ -182,9 +182,7 @@ fn lossless_on_valence_6_and_two_components() {
     use qm::lift::glam::DVec3;
     use qm::lift::{BaseMesh, Layout};
     // Fan: centre 0, ring 1..=12 alternating spoke ends and corners.
-    let mut faces: Vec<[u32; 4]> = (0..6u32)
-        .map(|k| [0, 1 + 2 * k, 2 + 2 * k, 1 + (2 * k + 2) % 12])
-        .collect();
+    let (_, mut faces) = qm_shapes::quad_fan(6);
     let cube = qm::lift::synthetic::cube();
     faces.extend(cube.faces().iter().map(|f| f.map(|v| v + 13)));
     let base = BaseMesh::new(21, faces).unwrap();

@@ -23,7 +23,6 @@ use qm::param::BaseDomain;
 
 use crate::remesh_bench::{peak_kb, take};
 use crate::stress::{cylinder, unit};
-use crate::valence::ngon;
 
 pub fn run(args: &[String]) -> Result<(), String> {
     let mut args = args.to_vec();
@@ -107,10 +106,10 @@ fn child(case: &str) -> Result<(), String> {
         let fan = cylinder(n);
         PolyMesh::from_faces(fan.positions, &fan.faces)
     } else if let Some(n) = count("ngon-") {
-        ngon(n)
+        qm_shapes::ngon(n)
     } else if let Some(level) = count("plane-") {
         options = options.with_level(Some(level));
-        plane(19)
+        qm_shapes::poly(qm_shapes::plane(19))
     } else {
         qm::read_mesh(name).map_err(|e| e.to_string())?
     };
@@ -151,23 +150,6 @@ fn soup(n: u32) -> PolyMesh {
         }
         let v = 3 * i as u32;
         faces.push([v, v + 1, v + 2]);
-    }
-    PolyMesh::from_faces(positions, &faces)
-}
-
-/// A flat square of `n x n` cells, two triangles each.
-fn plane(n: u32) -> PolyMesh {
-    let side = n + 1;
-    let positions = (0..side * side)
-        .map(|i| DVec3::new(f64::from(i % side), f64::from(i / side), 0.0) / f64::from(n))
-        .collect();
-    let mut faces = Vec::new();
-    for y in 0..n {
-        for x in 0..n {
-            let v = y * side + x;
-            faces.push([v, v + 1, v + side + 1]);
-            faces.push([v, v + side + 1, v + side]);
-        }
     }
     PolyMesh::from_faces(positions, &faces)
 }

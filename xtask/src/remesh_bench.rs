@@ -17,13 +17,11 @@
 //! build's so that both meet the same machine, and a second table gives
 //! the ratio of the median remesh times and peaks, this build over that.
 
-use std::f64::consts::TAU;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
 use qm::PolyMesh;
-use qm::lift::glam::DVec3;
 
 /// Prefix of the names standing for a generated torus instead of a file.
 const TORUS: &str = "generated-torus-";
@@ -315,27 +313,8 @@ pub(crate) fn peak_kb() -> Option<u64> {
 
 /// A triangulated torus of `n x m` vertices with a fine relief.
 fn bumpy_torus(n: u32, m: u32) -> PolyMesh {
-    let mut positions = Vec::with_capacity((n * m) as usize);
-    for j in 0..m {
-        for i in 0..n {
-            let (u, v) = (i as f64 / n as f64 * TAU, j as f64 / m as f64 * TAU);
-            let r = 1.0 + 0.02 * (17.0 * u).sin() * (11.0 * v).cos();
-            positions.push(DVec3::new(
-                (3.0 + r * v.cos()) * u.cos(),
-                (3.0 + r * v.cos()) * u.sin(),
-                r * v.sin(),
-            ));
-        }
-    }
-    let id = |i: u32, j: u32| (j % m) * n + (i % n);
-    let mut faces = Vec::with_capacity(2 * (n * m) as usize);
-    for j in 0..m {
-        for i in 0..n {
-            faces.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            faces.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
-    PolyMesh::from_faces(positions, &faces)
+    let minor = |u: f64, v: f64| 1.0 + 0.02 * (17.0 * u).sin() * (11.0 * v).cos();
+    qm_shapes::poly(qm_shapes::torus(n, m, 3.0, minor))
 }
 
 #[cfg(test)]

@@ -5,11 +5,9 @@
 //! it). Prints a Markdown table with the time per input vertex, so that
 //! near-linear growth reads as a flat column.
 
-use std::f64::consts::TAU;
 use std::time::Instant;
 
 use qm::PolyMesh;
-use qm::lift::glam::DVec3;
 
 use crate::stress::cylinder;
 
@@ -26,7 +24,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
     for &n in SIZES.iter().filter(|&&n| n <= max) {
         let fan = cylinder(n);
         let fan = PolyMesh::from_faces(fan.positions, &fan.faces);
-        for (shape, mesh) in [("fan-capped cylinder", fan), ("n-gon", ngon(n))] {
+        for (shape, mesh) in [("fan-capped cylinder", fan), ("n-gon", qm_shapes::ngon(n))] {
             let start = Instant::now();
             let encoded = qm::encode(&mesh, &qm::Options::default())
                 .map_err(|e| format!("{shape} of {n}: {e}"))?;
@@ -41,17 +39,4 @@ pub fn run(args: &[String]) -> Result<(), String> {
         }
     }
     Ok(())
-}
-
-/// One flat `n`-gon on the unit circle.
-pub(crate) fn ngon(n: u32) -> PolyMesh {
-    let points: Vec<DVec3> = (0..n)
-        .map(|i| {
-            let a = TAU * f64::from(i) / f64::from(n);
-            DVec3::new(a.cos(), a.sin(), 0.0)
-        })
-        .collect();
-    let mut polygon = PolyMesh::from_faces::<3>(points, &[]);
-    polygon.push_face(&(0..n).collect::<Vec<u32>>());
-    polygon
 }

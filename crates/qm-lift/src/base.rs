@@ -260,11 +260,7 @@ mod tests {
     #[test]
     fn grid_centre_vertex_is_regular() {
         // 2x2 grid of quads: vertices 0..9 row-major.
-        let m = BaseMesh::new(
-            9,
-            vec![[0, 1, 4, 3], [1, 2, 5, 4], [3, 4, 7, 6], [4, 5, 8, 7]],
-        )
-        .unwrap();
+        let m = BaseMesh::new(9, qm_shapes::grid_quads(2, 2)).unwrap();
         assert!(m.is_regular(4));
         assert!(!m.is_regular(1));
         assert_eq!(m.boundary_edge_count(), 8);

@@ -462,11 +462,7 @@ mod tests {
     #[test]
     fn straight_through_a_regular_vertex() {
         // 2x2 grid; the centre vertex 4 is regular.
-        let base = BaseMesh::new(
-            9,
-            vec![[0, 1, 4, 3], [1, 2, 5, 4], [3, 4, 7, 6], [4, 5, 8, 7]],
-        )
-        .unwrap();
+        let base = BaseMesh::new(9, qm_shapes::grid_quads(2, 2)).unwrap();
         let layout = Layout::new(base, 1).unwrap();
         // Face 0 spans the lower-left quarter; its corner 2 is the centre.
         // One step right of (2, 2) along row 2 is face 1's (1, 2) ...

@@ -466,15 +466,7 @@ mod tests {
 
     fn open_grid(level: u32) -> Layout {
         // 3x3 grid of quads minus the centre one: a boundary and a hole.
-        let mut faces = Vec::new();
-        for y in 0..3u32 {
-            for x in 0..3u32 {
-                if (x, y) != (1, 1) {
-                    let v = |x: u32, y: u32| y * 4 + x;
-                    faces.push([v(x, y), v(x + 1, y), v(x + 1, y + 1), v(x, y + 1)]);
-                }
-            }
-        }
+        let (_, faces) = qm_shapes::holed_grid();
         Layout::new(BaseMesh::new(16, faces).unwrap(), level).unwrap()
     }
 

@@ -1,4 +1,5 @@
-//! Synthetic semi-regular meshes, for tests and benchmarks.
+//! Synthetic semi-regular meshes, for tests and benchmarks. Plain meshes
+//! (positions and faces, a `PolyMesh`) live in the dev-only crate `qm-shapes`.
 
 use glam::DVec3;
 

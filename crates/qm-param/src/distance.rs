@@ -554,6 +554,8 @@ fn to_parry(p: DVec3) -> Vector {
 
 #[cfg(test)]
 mod tests {
+    use qm_shapes::{poly, square, uv_sphere};
+
     use super::*;
 
     /// The BVH over runs finds the closest point every triangle tested one
@@ -568,7 +570,7 @@ mod tests {
     }
 
     fn closest_points_match_on(stretch: DVec3) {
-        let mut mesh = sphere(1.0, 24, 40);
+        let mut mesh = uv_sphere(24, 40, 1.0);
         for (i, p) in mesh.positions.iter_mut().enumerate() {
             *p *= (1.0 + 0.05 * ((i * 7919) % 13) as f64 / 13.0) * stretch;
         }
@@ -600,55 +602,13 @@ mod tests {
         DistanceOptions::DEFAULT.with_samples(samples)
     }
 
-    fn square(z: f64) -> PolyMesh {
-        let positions = vec![
-            DVec3::new(0.0, 0.0, z),
-            DVec3::new(1.0, 0.0, z),
-            DVec3::new(1.0, 1.0, z),
-            DVec3::new(0.0, 1.0, z),
-        ];
-        PolyMesh::from_faces(positions, &[[0u32, 1, 2, 3]])
-    }
-
-    /// A UV sphere of radius `r` with quads in between and triangle caps.
-    fn sphere(r: f64, rings: u32, segments: u32) -> PolyMesh {
-        let mut positions = vec![DVec3::new(0.0, 0.0, r)];
-        for i in 1..rings {
-            let theta = std::f64::consts::PI * i as f64 / rings as f64;
-            for j in 0..segments {
-                let phi = std::f64::consts::TAU * j as f64 / segments as f64;
-                positions.push(
-                    r * DVec3::new(
-                        theta.sin() * phi.cos(),
-                        theta.sin() * phi.sin(),
-                        theta.cos(),
-                    ),
-                );
-            }
-        }
-        positions.push(DVec3::new(0.0, 0.0, -r));
-        let south = positions.len() as u32 - 1;
-        let at = |i: u32, j: u32| 1 + (i - 1) * segments + j % segments;
-        let mut mesh = PolyMesh::from_faces(positions, &[] as &[[u32; 3]]);
-        for j in 0..segments {
-            mesh.push_face(&[0, at(1, j), at(1, j + 1)]);
-            mesh.push_face(&[south, at(rings - 1, j + 1), at(rings - 1, j)]);
-        }
-        for i in 1..rings - 1 {
-            for j in 0..segments {
-                mesh.push_face(&[at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]);
-            }
-        }
-        mesh
-    }
-
     fn close(a: f64, b: f64, tolerance: f64) -> bool {
         (a - b).abs() <= tolerance * b.abs().max(1e-12)
     }
 
     #[test]
     fn identical_meshes_are_at_distance_zero() {
-        let s = sphere(1.0, 8, 12);
+        let s = uv_sphere(8, 12, 1.0);
         let report = distance(&s, &s.clone(), &options(10_000)).unwrap();
         assert_eq!(report.rms, 0.0);
         assert_eq!(report.hausdorff, 0.0);
@@ -662,7 +622,7 @@ mod tests {
 
     #[test]
     fn same_surface_different_triangulation_is_near_zero() {
-        let a = square(0.0);
+        let a = poly(square(0.0));
         let mut b = PolyMesh::from_faces(a.positions.clone(), &[[1u32, 2, 3], [1, 3, 0]]);
         b.positions.push(DVec3::splat(5.0)); // unused, so no effect
         let report = distance(&a, &b, &options(10_000)).unwrap();
@@ -673,7 +633,7 @@ mod tests {
     #[test]
     fn shifted_square_is_at_the_shift() {
         let d = 0.01;
-        let report = distance(&square(0.0), &square(d), &options(20_000)).unwrap();
+        let report = distance(&poly(square(0.0)), &poly(square(d)), &options(20_000)).unwrap();
         for value in [report.rms, report.mean, report.hausdorff] {
             assert!(close(value, d, 1e-9), "{report:?}");
         }
@@ -689,8 +649,8 @@ mod tests {
 
     #[test]
     fn scaled_sphere_is_at_about_the_radius_difference() {
-        let a = sphere(1.0, 24, 48);
-        let b = sphere(1.02, 24, 48);
+        let a = uv_sphere(24, 48, 1.0);
+        let b = uv_sphere(24, 48, 1.02);
         let report = distance(&a, &b, &options(50_000)).unwrap();
         // Same tessellation scaled about the centre: every point of A is at
         // most 0.02 from B; near the middle of faces a bit less.
@@ -701,8 +661,8 @@ mod tests {
 
     #[test]
     fn swapping_the_meshes_swaps_the_directions() {
-        let a = sphere(1.0, 10, 16);
-        let b = sphere(1.05, 7, 11);
+        let a = uv_sphere(10, 16, 1.0);
+        let b = uv_sphere(7, 11, 1.05);
         let ab = distance(&a, &b, &options(20_000)).unwrap();
         let ba = distance(&b, &a, &options(20_000)).unwrap();
         assert_eq!(ab.a_to_b, ba.b_to_a);
@@ -713,8 +673,8 @@ mod tests {
 
     #[test]
     fn more_samples_give_a_stable_estimate() {
-        let a = sphere(1.0, 10, 16);
-        let b = sphere(1.0, 7, 11);
+        let a = uv_sphere(10, 16, 1.0);
+        let b = uv_sphere(7, 11, 1.0);
         let estimates: Vec<f64> = [40_000, 80_000, 160_000]
             .iter()
             .map(|&n| distance(&a, &b, &options(n)).unwrap().rms)
@@ -728,8 +688,8 @@ mod tests {
 
     #[test]
     fn the_same_seed_gives_the_same_report() {
-        let a = sphere(1.0, 10, 16);
-        let b = sphere(1.0, 7, 11);
+        let a = uv_sphere(10, 16, 1.0);
+        let b = uv_sphere(7, 11, 1.0);
         let first = distance(&a, &b, &options(30_000)).unwrap();
         let second = distance(&a, &b, &options(30_000)).unwrap();
         assert_eq!(first, second);
@@ -737,7 +697,7 @@ mod tests {
 
     #[test]
     fn degenerate_inputs_are_errors() {
-        let good = square(0.0);
+        let good = poly(square(0.0));
         let empty = PolyMesh::new();
         assert_eq!(
             distance(&empty, &good, &options(10)),
@@ -753,7 +713,7 @@ mod tests {
             distance(&good, &flat, &options(10)),
             Err(Error::ZeroArea { mesh: Side::B })
         );
-        let mut nan = square(0.0);
+        let mut nan = poly(square(0.0));
         nan.positions[2].y = f64::NAN;
         assert_eq!(
             distance(&good, &nan, &options(10)),

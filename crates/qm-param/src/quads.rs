@@ -196,11 +196,7 @@ mod tests {
 
     #[test]
     fn grid_valences_and_adjacency() {
-        let mesh = QuadMesh::new(
-            9,
-            vec![[0, 1, 4, 3], [1, 2, 5, 4], [3, 4, 7, 6], [4, 5, 8, 7]],
-        )
-        .unwrap();
+        let mesh = QuadMesh::new(9, qm_shapes::grid_quads(2, 2)).unwrap();
         assert_eq!(mesh.valence(4), Valence::Interior4);
         assert_eq!(mesh.valence(1), Valence::Boundary2);
         assert_eq!(mesh.valence(0), Valence::Extraordinary);

@@ -442,15 +442,7 @@ mod tests {
     use qm_lift::synthetic::cube;
 
     fn holed_grid() -> BaseMesh {
-        let v = |x: u32, y: u32| y * 4 + x;
-        let faces = (0..9u32)
-            .filter(|&k| k != 4)
-            .map(|k| {
-                let (x, y) = (k % 3, k / 3);
-                [v(x, y), v(x + 1, y), v(x + 1, y + 1), v(x, y + 1)]
-            })
-            .collect();
-        BaseMesh::new(16, faces).unwrap()
+        BaseMesh::new(16, qm_shapes::holed_grid().1).unwrap()
     }
 
     /// Every coefficient is in exactly one tree, parents precede children,

@@ -50,11 +50,9 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 mod tests {
     use super::*;
     use crate::{DecodeOptions, EncodeOptions, Options, PolyMesh};
-    use qm_lift::glam::DVec3;
 
     fn tetrahedron() -> PolyMesh {
-        let p = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z];
-        PolyMesh::from_faces(p.to_vec(), &[[0u32, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+        qm_shapes::poly(qm_shapes::tetrahedron())
     }
 
     /// One error of each kind, each from what a user would do.

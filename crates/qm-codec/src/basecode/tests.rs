@@ -5,13 +5,7 @@ use super::*;
 
 /// A `k x k` grid of quads numbered row by row, on a wavy surface.
 fn grid(k: u32) -> (Vec<[u32; 4]>, Vec<[i32; 3]>) {
-    let v = |x: u32, y: u32| y * (k + 1) + x;
-    let mut faces = Vec::new();
-    for y in 0..k {
-        for x in 0..k {
-            faces.push([v(x, y), v(x + 1, y), v(x + 1, y + 1), v(x, y + 1)]);
-        }
-    }
+    let faces = qm_shapes::grid_quads(k, k);
     let values = (0..(k + 1) * (k + 1))
         .map(|i| {
             let (x, y) = ((i % (k + 1)) as f64, (i / (k + 1)) as f64);
@@ -27,23 +21,10 @@ fn grid(k: u32) -> (Vec<[u32; 4]>, Vec<[i32; 3]>) {
 
 type Triangles = Vec<[u32; 3]>;
 
-/// A `k x k` grid's squares, two triangles each, row by row.
-fn grid_triangles(k: u32) -> Triangles {
-    let v = |x: u32, y: u32| y * (k + 1) + x;
-    let mut triangles = Vec::new();
-    for y in 0..k {
-        for x in 0..k {
-            triangles.push([v(x, y), v(x + 1, y), v(x + 1, y + 1)]);
-            triangles.push([v(x, y), v(x + 1, y + 1), v(x, y + 1)]);
-        }
-    }
-    triangles
-}
-
 /// The triangles of a wavy `k x k` grid, two to a square, row by row,
 /// split into quads: faces, values, triangles.
 fn split_grid(k: u32) -> (Vec<[u32; 4]>, Vec<[i32; 3]>, Triangles) {
-    let triangles = grid_triangles(k);
+    let triangles = qm_shapes::grid_triangles(k, k);
     let split = split_triangles(&triangles);
     // Corners where the grid has them, the rest on the surface halfway.
     let at = |x: f64, y: f64| {
@@ -131,7 +112,7 @@ fn depth_first(triangles: &[[u32; 3]]) -> Triangles {
 /// in version 3 (1,780 bytes against 2,364), and come back.
 #[test]
 fn vertices_beside_their_edge_cost_less_in_version_4() {
-    let triangles = depth_first(&grid_triangles(48));
+    let triangles = depth_first(&qm_shapes::grid_triangles(48, 48));
     let split = split_triangles(&triangles);
     let none = vec![[0; 3]; split.vertex_count as usize];
     let (three, four) = (
@@ -207,7 +188,7 @@ fn round_trip_and_size() {
 /// docs/decisions/026-base-connectivity.md).
 #[test]
 fn quads_of_scrambled_triangles_cost_less_in_version_2() {
-    let mut triangles = grid_triangles(24);
+    let mut triangles = qm_shapes::grid_triangles(24, 24);
     let mut x = 7u64;
     for i in (1..triangles.len()).rev() {
         x = x

@@ -25,14 +25,8 @@ fn poly<const K: usize>(p: &[[f64; 3]], f: &[[u32; K]]) -> PolyMesh {
 #[test]
 fn a_convex_polygon_is_a_strip_not_a_fan() {
     let n = 12u32;
-    let points: Vec<DVec3> = (0..n)
-        .map(|i| {
-            let a = std::f64::consts::TAU * f64::from(i) / f64::from(n);
-            DVec3::new(a.cos(), a.sin(), 0.0)
-        })
-        .collect();
-    let mut mesh = PolyMesh::from_faces::<3>(points.clone(), &[]);
-    mesh.push_face(&(0..n).collect::<Vec<u32>>());
+    let mut mesh = qm_shapes::ngon(n);
+    let points = mesh.positions.clone();
     let tris = triangulate(&mesh, &mut CleanReport::default()).unwrap();
     assert_eq!(tris.len(), n as usize - 2);
     let mut uses = vec![0; n as usize];
@@ -48,40 +42,28 @@ fn a_convex_polygon_is_a_strip_not_a_fan() {
     let polygon = f64::from(n) / 2.0 * (std::f64::consts::TAU / f64::from(n)).sin();
     assert!((area - polygon).abs() < 1e-12);
     // A dent: the fan from the first corner, as before.
-    let mut dented = points;
-    dented[6] *= 0.1;
-    let mut mesh = PolyMesh::from_faces::<3>(dented, &[]);
-    mesh.push_face(&(0..n).collect::<Vec<u32>>());
+    mesh.positions[6] *= 0.1;
     let tris = triangulate(&mesh, &mut CleanReport::default()).unwrap();
     assert!(tris.iter().all(|t| t[0] == 0));
 }
 
+/// The corner tetrahedron, faces outward.
 fn tetra(o: [f64; 3]) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
-    let p = [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.]]
-        .map(|q| [q[0] + o[0], q[1] + o[1], q[2] + o[2]])
-        .to_vec();
-    (p, vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    let (p, f) = qm_shapes::tetrahedron();
+    (moved(&p, o), f)
 }
 
+/// The unit cube, outward quads.
 fn cube(o: [f64; 3]) -> (Vec<[f64; 3]>, Vec<[u32; 4]>) {
-    let mut p = Vec::new();
-    for i in 0..8 {
-        p.push([
-            o[0] + f64::from(i & 1),
-            o[1] + f64::from((i >> 1) & 1),
-            o[2] + f64::from((i >> 2) & 1),
-        ]);
-    }
-    // Outward quads.
-    let f = vec![
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-    ];
-    (p, f)
+    let (p, f) = qm_shapes::cube();
+    (moved(&p, o), f)
+}
+
+/// Positions moved by `o`, as arrays.
+fn moved(p: &[DVec3], o: [f64; 3]) -> Vec<[f64; 3]> {
+    p.iter()
+        .map(|q| [q.x + o[0], q.y + o[1], q.z + o[2]])
+        .collect()
 }
 
 fn volume(m: &TriMesh) -> f64 {
@@ -383,37 +365,10 @@ fn ngons_are_split_and_their_duplicates_found() {
     assert_eq!((t.faces, t.boundary_loops, t.genus), (3, 1, 0));
 }
 
-/// A `w` by `h` grid of quads split into triangles, every other one
-/// reversed.
-fn grid(w: u32, h: u32, scramble: bool) -> PolyMesh {
-    let mut p = Vec::new();
-    for y in 0..=h {
-        for x in 0..=w {
-            p.push([f64::from(x), f64::from(y), 0.0]);
-        }
-    }
-    let id = |x: u32, y: u32| y * (w + 1) + x;
-    let mut f = Vec::new();
-    for y in 0..h {
-        for x in 0..w {
-            let (a, b, c, d) = (id(x, y), id(x + 1, y), id(x + 1, y + 1), id(x, y + 1));
-            f.push([a, b, c]);
-            f.push([a, c, d]);
-        }
-    }
-    if scramble {
-        for (k, t) in f.iter_mut().enumerate() {
-            if k % 3 != 0 {
-                t.swap(1, 2);
-            }
-        }
-    }
-    poly(&p, &f)
-}
-
 #[test]
 fn inconsistent_orientation_is_made_consistent() {
-    let c = clean(&grid(6, 5, true)).unwrap();
+    // A grid of triangles, all but every third one turned over.
+    let c = clean(&qm_shapes::poly(qm_shapes::grid(6, 5, true))).unwrap();
     assert_eq!(c.components.len(), 1);
     assert_eq!(c.report.split_edges, 0);
     let m = &c.components[0];
@@ -604,25 +559,7 @@ fn bundled_models() {
 #[ignore = "timing; run in release"]
 fn large_torus_timing() {
     let (w, h) = (700u32, 700u32);
-    let mut p = Vec::new();
-    for y in 0..h {
-        for x in 0..w {
-            let (u, v) = (
-                std::f64::consts::TAU * f64::from(x) / f64::from(w),
-                std::f64::consts::TAU * f64::from(y) / f64::from(h),
-            );
-            let r = 3.0 + v.cos();
-            p.push(DVec3::new(r * u.cos(), r * u.sin(), v.sin()));
-        }
-    }
-    let id = |x: u32, y: u32| (y % h) * w + (x % w);
-    let mut m = PolyMesh::new();
-    m.positions = p;
-    for y in 0..h {
-        for x in 0..w {
-            m.push_face(&[id(x, y), id(x + 1, y), id(x + 1, y + 1), id(x, y + 1)]);
-        }
-    }
+    let m = qm_shapes::poly(qm_shapes::torus_quads(w, h, 3.0, 1.0));
     let start = std::time::Instant::now();
     let c = clean(&m).unwrap();
     println!(

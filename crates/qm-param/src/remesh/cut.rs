@@ -349,25 +349,8 @@ mod tests {
     use super::*;
 
     /// An octahedron: closed, genus 0.
-    pub(crate) fn octahedron() -> TriMesh {
-        let positions = vec![
-            DVec3::X,
-            DVec3::Y,
-            DVec3::NEG_X,
-            DVec3::NEG_Y,
-            DVec3::Z,
-            DVec3::NEG_Z,
-        ];
-        let triangles = vec![
-            [0, 1, 4],
-            [1, 2, 4],
-            [2, 3, 4],
-            [3, 0, 4],
-            [1, 0, 5],
-            [2, 1, 5],
-            [3, 2, 5],
-            [0, 3, 5],
-        ];
+    fn octahedron() -> TriMesh {
+        let (positions, triangles) = qm_shapes::octahedron();
         TriMesh {
             positions,
             triangles,

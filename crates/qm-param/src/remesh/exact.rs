@@ -90,21 +90,7 @@ mod tests {
 
     /// An L-shaped prism: 12 vertices, every edge a crease.
     fn prism() -> PolyMesh {
-        let outline = [(0., 0.), (2., 0.), (2., 1.), (1., 1.), (1., 2.), (0., 2.)];
-        let mut positions: Vec<DVec3> =
-            outline.iter().map(|&(x, y)| DVec3::new(x, y, 0.)).collect();
-        positions.extend(outline.iter().map(|&(x, y)| DVec3::new(x, y, 1.)));
-        let mut faces: Vec<[u32; 3]> = Vec::new();
-        for i in 0..6u32 {
-            let j = (i + 1) % 6;
-            faces.push([i, j, j + 6]);
-            faces.push([i, j + 6, i + 6]);
-        }
-        for [a, b, c] in [[0u32, 2, 1], [0, 3, 2], [0, 5, 3], [3, 5, 4]] {
-            faces.push([a, b, c]);
-            faces.push([a + 6, c + 6, b + 6]);
-        }
-        PolyMesh::from_faces(positions, &faces)
+        qm_shapes::poly(qm_shapes::l_prism())
     }
 
     #[test]
@@ -131,19 +117,10 @@ mod tests {
     /// for remeshing cancels the fin, the input's own triangles keep it.
     #[test]
     fn the_input_keeps_its_zero_thickness_fins() {
-        let mut positions: Vec<DVec3> = (0..8)
-            .map(|i| DVec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, (i >> 2) as f64))
-            .collect();
+        let (mut positions, quads) = qm_shapes::cube();
         positions.push(DVec3::new(0.5, 0.0, 2.0));
         let mut faces: Vec<[u32; 3]> = Vec::new();
-        for [a, b, c, d] in [
-            [0u32, 2, 3, 1],
-            [4, 5, 7, 6],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-        ] {
+        for [a, b, c, d] in quads {
             faces.push([a, b, c]);
             faces.push([a, c, d]);
         }

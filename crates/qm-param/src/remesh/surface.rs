@@ -546,35 +546,8 @@ mod tests {
 
     /// A closed surface: a sphere of `n` rings and `2n` meridians, its
     /// radius `radius(theta, phi)`.
-    fn radial(n: usize, radius: impl Fn(f64, f64) -> f64) -> TriMesh {
-        let mut positions = vec![DVec3::new(0.0, 0.0, radius(0.0, 0.0))];
-        let mut triangles = Vec::new();
-        let m = 2 * n;
-        for i in 1..n {
-            let theta = std::f64::consts::PI * i as f64 / n as f64;
-            for j in 0..m {
-                let phi = std::f64::consts::TAU * j as f64 / m as f64;
-                positions.push(
-                    radius(theta, phi)
-                        * DVec3::new(
-                            theta.sin() * phi.cos(),
-                            theta.sin() * phi.sin(),
-                            theta.cos(),
-                        ),
-                );
-            }
-        }
-        positions.push(DVec3::new(0.0, 0.0, -radius(std::f64::consts::PI, 0.0)));
-        let ring = |i: usize, j: usize| (1 + (i - 1) * m + j % m) as u32;
-        let last = positions.len() as u32 - 1;
-        for j in 0..m {
-            triangles.push([0, ring(1, j), ring(1, j + 1)]);
-            for i in 1..n - 1 {
-                triangles.push([ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)]);
-                triangles.push([ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)]);
-            }
-            triangles.push([ring(n - 1, j), last, ring(n - 1, j + 1)]);
-        }
+    fn radial(n: u32, radius: impl Fn(f64, f64) -> f64) -> TriMesh {
+        let (positions, triangles) = qm_shapes::uv_sphere_radial(n, 2 * n, radius);
         TriMesh {
             positions,
             triangles,
@@ -582,7 +555,7 @@ mod tests {
     }
 
     /// A bumpy closed surface: a sphere of `n` rings, its radius rippled.
-    fn bumpy(n: usize) -> TriMesh {
+    fn bumpy(n: u32) -> TriMesh {
         radial(n, |theta, phi| {
             1.0 + 0.1 * (3.0 * phi).sin() * (2.0 * theta).sin()
         })

@@ -1,7 +1,7 @@
-//! End-to-end tests of [`remesh`](super::remesh), and the shapes other
-//! modules' tests remesh ([`sphere`]).
+//! End-to-end tests of [`remesh`](super::remesh).
 
 use qm_lift::glam::DVec3;
+use qm_shapes::uv_sphere_poles_first;
 
 use super::budget::SHARE_SLACK;
 use super::memory::both_memory;
@@ -13,34 +13,6 @@ use crate::distance::{DistanceOptions, distance};
 /// These tests are of the one-square layout.
 const SQUARE: RemeshOptions = RemeshOptions::DEFAULT.with_domain(BaseDomain::Square);
 
-/// A closed latitude-longitude sphere of radius 1, `n` segments around.
-pub(super) fn sphere(n: u32) -> PolyMesh {
-    let rings = n / 2;
-    let mut positions = vec![DVec3::Z, DVec3::NEG_Z];
-    for r in 1..rings {
-        let theta = std::f64::consts::PI * r as f64 / rings as f64;
-        for s in 0..n {
-            let phi = std::f64::consts::TAU * s as f64 / n as f64;
-            positions.push(DVec3::new(
-                theta.sin() * phi.cos(),
-                theta.sin() * phi.sin(),
-                theta.cos(),
-            ));
-        }
-    }
-    let at = |r: u32, s: u32| 2 + (r - 1) * n + s % n;
-    let mut faces = Vec::new();
-    for s in 0..n {
-        faces.push([0, at(1, s), at(1, s + 1)]);
-        faces.push([1, at(rings - 1, s + 1), at(rings - 1, s)]);
-        for r in 1..rings - 1 {
-            faces.push([at(r, s), at(r + 1, s), at(r + 1, s + 1)]);
-            faces.push([at(r, s), at(r + 1, s + 1), at(r, s + 1)]);
-        }
-    }
-    PolyMesh::from_faces(positions, &faces)
-}
-
 fn quads(r: &Remeshed) -> PolyMesh {
     let layout = r.mesh.layout();
     PolyMesh::from_faces(r.mesh.positions().to_vec(), &layout.quads(layout.level()))
@@ -50,8 +22,8 @@ fn quads(r: &Remeshed) -> PolyMesh {
 /// that the base coder sends it as triangles.
 #[test]
 fn parts_through_charts_make_one_split() {
-    let mut input = sphere(12);
-    input.append(&sphere(12), DVec3::new(5.0, 0.0, 0.0));
+    let mut input = uv_sphere_poles_first(6, 12);
+    input.append(&uv_sphere_poles_first(6, 12), DVec3::new(5.0, 0.0, 0.0));
     let options = RemeshOptions::DEFAULT.with_domain(BaseDomain::Charts);
     let r = remesh(&input, &options).unwrap();
     assert_eq!(r.report.components.len(), 2);
@@ -66,7 +38,7 @@ fn parts_through_charts_make_one_split() {
 /// (under a memory limit that holds one at a time) in turn.
 #[test]
 fn auto_is_the_same_at_once_and_in_turn() {
-    let mesh = sphere(40);
+    let mesh = uv_sphere_poles_first(20, 40);
     let at_once = remesh(&mesh, &RemeshOptions::DEFAULT).expect("remesh");
     let cleaned = clean(&mesh).unwrap();
     let triangles = mesh.faces().map(|f| f.len() as u64 - 2).sum();
@@ -79,7 +51,7 @@ fn auto_is_the_same_at_once_and_in_turn() {
 
 #[test]
 fn no_parameter_triangle_flips_and_the_budget_holds() {
-    let input = sphere(16);
+    let input = uv_sphere_poles_first(8, 16);
     let r = remesh(&input, &SQUARE).unwrap();
     for c in &r.report.components {
         assert_eq!(c.flipped, 0, "{c:?}");
@@ -96,8 +68,8 @@ fn no_parameter_triangle_flips_and_the_budget_holds() {
 /// holds only a few percent of the samples.
 #[test]
 fn a_small_separate_part_keeps_the_level() {
-    let alone = sphere(64);
-    let small = sphere(16);
+    let alone = uv_sphere_poles_first(32, 64);
+    let small = uv_sphere_poles_first(8, 16);
     let mut positions = alone.positions.clone();
     positions.extend(
         small
@@ -143,15 +115,14 @@ fn a_small_separate_part_keeps_the_level() {
 /// the cap of 32 samples per input vertex (64,192).
 #[test]
 fn splinters_map_cleanly() {
-    let alone = sphere(64);
+    let alone = uv_sphere_poles_first(32, 64);
     let mut both = alone.clone();
-    let tetra = [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.]];
+    let (tetra, faces) = qm_shapes::tetrahedron();
     for i in 0..5 {
         let offset = both.positions.len() as u32;
         let at = DVec3::new(1.5 + 0.1 * f64::from(i), 0.0, 0.0);
-        both.positions
-            .extend(tetra.iter().map(|&p| at + 0.03 * DVec3::from_array(p)));
-        for f in [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]] {
+        both.positions.extend(tetra.iter().map(|&p| at + 0.03 * p));
+        for f in &faces {
             both.push_face(&f.map(|v| v + offset));
         }
     }
@@ -199,7 +170,7 @@ fn auto_does_not_cut_a_part_of_many_holes() {
 
 /// A sphere with 48 small holes spread over it.
 fn holed_sphere() -> PolyMesh {
-    let whole = sphere(64);
+    let whole = uv_sphere_poles_first(32, 64);
     let centres: Vec<DVec3> = (0..48)
         .map(|i| {
             // A Fibonacci spiral: the holes spread over the sphere.
@@ -232,7 +203,7 @@ fn holed_sphere() -> PolyMesh {
 /// level 4.
 #[test]
 fn one_component_stays_near_its_target() {
-    let input = sphere(32);
+    let input = uv_sphere_poles_first(16, 32);
     let target = 2401.0;
     let r = remesh(
         &input,
@@ -259,7 +230,7 @@ fn one_component_stays_near_its_target() {
 /// own test pins the rule.)
 #[test]
 fn a_part_gets_the_same_square_wherever_it_is() {
-    let unit = sphere(16);
+    let unit = uv_sphere_poles_first(8, 16);
     let faces: Vec<[u32; 3]> = unit.faces().map(|f| [f[0], f[1], f[2]]).collect();
     let squares: std::collections::BTreeSet<(usize, usize, u32)> = (0..24)
         .map(|i| {
@@ -279,7 +250,7 @@ fn a_part_gets_the_same_square_wherever_it_is() {
 
 #[test]
 fn fitting_the_samples_beats_interpolating_the_surface() {
-    let input = sphere(16);
+    let input = uv_sphere_poles_first(8, 16);
     let options = DistanceOptions::DEFAULT.with_samples(50_000);
     let psnr = |rounds: usize| {
         let r = remesh(&input, &SQUARE.with_fit_rounds(rounds)).unwrap();
@@ -322,7 +293,7 @@ fn tangential(r: &Remeshed) -> (f64, f64) {
 /// sample lies on the input surface.
 #[test]
 fn normal_placement_makes_the_details_normal() {
-    let input = sphere(48);
+    let input = uv_sphere_poles_first(24, 48);
     let samples = DistanceOptions::DEFAULT.with_samples(50_000);
     let surface = surface::Surface::new(&clean(&input).unwrap().components).unwrap();
     let psnr = |r: &Remeshed| distance(&input, &quads(r), &samples).unwrap().psnr_db;

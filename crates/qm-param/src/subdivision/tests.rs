@@ -3,12 +3,11 @@ use std::path::Path;
 
 use qm_io::SplitMix64;
 use qm_lift::glam::DVec3;
+use qm_shapes::{Quads, holed_grid, open_cylinder_quads, quad_fan, square, torus_quads};
 
 use super::*;
 
-/// Positions and quads.
-type Quads = (Vec<DVec3>, Vec<[u32; 4]>);
-
+/// The cube `[-1, 1]^3` with the faces of `qm_lift::synthetic::cube`.
 fn cube() -> Quads {
     let positions = (0..8)
         .map(|v| {
@@ -19,74 +18,6 @@ fn cube() -> Quads {
         })
         .collect();
     (positions, qm_lift::synthetic::cube().faces().to_vec())
-}
-
-/// An `a x b` torus.
-fn torus(a: u32, b: u32) -> Quads {
-    let id = |i: u32, j: u32| (i % a) + a * (j % b);
-    let positions = (0..a * b)
-        .map(|v| {
-            let (u, w) = (
-                std::f64::consts::TAU * (v % a) as f64 / a as f64,
-                std::f64::consts::TAU * (v / a) as f64 / b as f64,
-            );
-            DVec3::new(
-                (2.0 + w.cos()) * u.cos(),
-                (2.0 + w.cos()) * u.sin(),
-                w.sin(),
-            )
-        })
-        .collect();
-    let faces = (0..b)
-        .flat_map(|j| (0..a).map(move |i| [id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)]))
-        .collect();
-    (positions, faces)
-}
-
-/// An open cylinder, `a` quads around and `h` high: no extraordinary vertex.
-fn cylinder(a: u32, h: u32) -> Quads {
-    let (mut positions, faces) = torus(a, h + 1);
-    for (v, p) in positions.iter_mut().enumerate() {
-        let u = std::f64::consts::TAU * (v as u32 % a) as f64 / a as f64;
-        *p = DVec3::new(u.cos(), u.sin(), (v as u32 / a) as f64);
-    }
-    let faces = faces.into_iter().take((a * h) as usize).collect();
-    (positions, faces)
-}
-
-fn single_quad() -> Quads {
-    let positions = vec![DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::Y];
-    (positions, vec![[0, 1, 2, 3]])
-}
-
-/// A 3x3 grid of quads without its centre quad.
-fn holed_grid() -> Quads {
-    let positions = (0..16)
-        .map(|v| DVec3::new((v % 4) as f64, (v / 4) as f64, 0.0))
-        .collect();
-    let faces = (0..3)
-        .flat_map(|j| (0..3).map(move |i| (i, j)))
-        .filter(|&(i, j)| (i, j) != (1, 1))
-        .map(|(i, j)| {
-            let v = i + 4 * j;
-            [v, v + 1, v + 5, v + 4]
-        })
-        .collect();
-    (positions, faces)
-}
-
-/// An open disc of `valence` quads around one interior vertex.
-fn fan(valence: u32) -> Quads {
-    let mut positions = vec![DVec3::ZERO];
-    for k in 0..2 * valence {
-        let angle = std::f64::consts::PI * k as f64 / valence as f64;
-        let radius = if k % 2 == 0 { 1.0 } else { 1.5 };
-        positions.push(DVec3::new(radius * angle.cos(), radius * angle.sin(), 0.0));
-    }
-    let faces = (0..valence)
-        .map(|k| [0, 1 + 2 * k, 2 + 2 * k, 1 + (2 * k + 2) % (2 * valence)])
-        .collect();
-    (positions, faces)
 }
 
 /// Both meshes side by side.
@@ -194,14 +125,14 @@ fn finds_the_level_of_scrambled_refinements() {
     let cases: Vec<(&str, Quads, u32, usize)> = vec![
         ("cube", cube(), 1, 6),
         ("cube", cube(), 3, 6),
-        ("torus 4x6", torus(4, 6), 2, 24),
+        ("torus 4x6", torus_quads(4, 6, 2.0, 1.0), 2, 24),
         ("holed grid", holed_grid(), 3, 8),
         ("two cubes", disjoint(cube(), cube()), 2, 12),
         ("touching cubes", cubes_sharing_a_corner(), 2, 12),
-        ("valence 5", fan(5), 3, 5),
-        ("valence 3", fan(3), 2, 3),
-        ("cylinder", cylinder(4, 2), 3, 8),
-        ("single quad", single_quad(), 2, 1),
+        ("valence 5", quad_fan(5), 3, 5),
+        ("valence 3", quad_fan(3), 2, 3),
+        ("cylinder", open_cylinder_quads(4, 2), 3, 8),
+        ("single quad", square(0.0), 2, 1),
     ];
     let mut rng = SplitMix64::new(0x9E37_79B9_7F4A_7C15);
     for (name, base, levels, base_faces) in cases {
@@ -218,10 +149,10 @@ fn finds_the_level_of_scrambled_refinements() {
 fn tori_coarsen_as_far_as_the_base_stays_valid() {
     // 8x6 coarsens to 4x3, which cannot be halved again (3 is odd).
     let mut rng = SplitMix64::new(7);
-    let mesh = shuffled(&refined(torus(8, 6), 1), &mut rng);
+    let mesh = shuffled(&refined(torus_quads(8, 6, 2.0, 1.0), 1), &mut rng);
     check(&mesh, &detect_subdivision(&mesh).unwrap(), 2, 12);
     // 4x6 would coarsen to 2x3, whose edges come in pairs.
-    let mesh = shuffled(&torus(4, 6), &mut rng);
+    let mesh = shuffled(&torus_quads(4, 6, 2.0, 1.0), &mut rng);
     assert_eq!(
         detect_subdivision(&mesh).unwrap_err(),
         Error::NoSubdivisionConnectivity
@@ -232,7 +163,7 @@ fn tori_coarsen_as_far_as_the_base_stays_valid() {
 fn components_share_one_level() {
     // The cube could lose three levels, the torus only two.
     let cube = refined(cube(), 3);
-    let torus = refined(torus(4, 6), 2);
+    let torus = refined(torus_quads(4, 6, 2.0, 1.0), 2);
     let mut rng = SplitMix64::new(11);
     let mesh = shuffled(&disjoint(cube, torus), &mut rng);
     check(&mesh, &detect_subdivision(&mesh).unwrap(), 2, 6 * 4 + 24);
@@ -332,10 +263,10 @@ fn damaged_meshes_give_errors_or_exact_results_never_panics() {
     let mut rng = SplitMix64::new(0xDEAD_BEEF);
     let bases = [
         refined(cube(), 3),
-        refined(torus(4, 6), 2),
+        refined(torus_quads(4, 6, 2.0, 1.0), 2),
         refined(holed_grid(), 2),
-        refined(cylinder(4, 2), 3),
-        refined(fan(5), 2),
+        refined(open_cylinder_quads(4, 2), 3),
+        refined(quad_fan(5), 2),
     ];
     let mut detected = 0;
     for base in &bases {

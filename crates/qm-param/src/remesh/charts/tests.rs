@@ -31,29 +31,9 @@ fn overlapping_drawn_triangles_give_the_smallest() {
 }
 
 /// A torus of `m x n` vertices, radii 1 and 0.35, a little bumpy.
-fn torus(m: usize, n: usize) -> PolyMesh {
-    let mut positions = Vec::new();
-    for i in 0..m {
-        let u = std::f64::consts::TAU * i as f64 / m as f64;
-        for j in 0..n {
-            let v = std::f64::consts::TAU * j as f64 / n as f64;
-            let r = 0.35 + 0.03 * (3.0 * u).sin() * (2.0 * v).cos();
-            positions.push(DVec3::new(
-                (1.0 + r * v.cos()) * u.cos(),
-                (1.0 + r * v.cos()) * u.sin(),
-                r * v.sin(),
-            ));
-        }
-    }
-    let at = |i: usize, j: usize| ((i % m) * n + j % n) as u32;
-    let mut faces = Vec::new();
-    for i in 0..m {
-        for j in 0..n {
-            faces.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
-            faces.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
-        }
-    }
-    PolyMesh::from_faces(positions, &faces)
+fn torus(m: u32, n: u32) -> PolyMesh {
+    let minor = |u: f64, v: f64| 0.35 + 0.03 * (3.0 * u).sin() * (2.0 * v).cos();
+    qm_shapes::poly(qm_shapes::torus_ring_by_ring(m, n, 1.0, minor))
 }
 
 fn options() -> RemeshOptions {
@@ -91,7 +71,7 @@ fn a_torus_remeshes_closed_with_its_genus_and_near_the_input() {
 
 /// A simplified sphere, its domain, and its map's fold count.
 fn sphere_map() -> (TriMesh, Base) {
-    let sphere = crate::remesh::tests::sphere(48);
+    let sphere = qm_shapes::uv_sphere_poles_first(24, 48);
     let mesh = crate::clean::clean(&sphere).unwrap().components.remove(0);
     let base = crate::remesh::simplify::simplify(&mesh, 40);
     (mesh, base)
@@ -249,7 +229,7 @@ fn neighbours_never_share_a_colour() {
 /// its stretch opens them up, and nothing folds.
 #[test]
 fn relaxing_the_stretch_opens_up_squeezed_triangles() {
-    let mut sphere = crate::remesh::tests::sphere(48);
+    let mut sphere = qm_shapes::uv_sphere_poles_first(24, 48);
     for p in &mut sphere.positions {
         let d = p.distance_squared(DVec3::Z);
         *p *= 1.0 + 1.5 * (-d / 0.05).exp();
@@ -283,7 +263,7 @@ fn pleats(mesh: &TriMesh, domain: &Domain, base: &Base) -> usize {
 #[test]
 fn relaxing_the_stretch_adds_no_pleats() {
     for (tall, wide, n, ripple) in [(0.8, 0.1, 40, 0.02), (2.0, 0.03, 48, 0.05)] {
-        let mut sphere = crate::remesh::tests::sphere(n);
+        let mut sphere = qm_shapes::uv_sphere_poles_first(n / 2, n);
         let bumps = [DVec3::Z, DVec3::X, DVec3::new(0.0, -0.6, -0.8)];
         for p in &mut sphere.positions {
             let height: f64 = bumps
@@ -380,25 +360,19 @@ fn boundary_edges(mesh: &TriMesh) -> Vec<[u32; 2]> {
 /// An `m x m` grid patch over the unit square, a height field of
 /// amplitude `z`; each cell's first triangle only where `keep(i, j)`.
 fn patch(m: usize, z: f64, keep: impl Fn(usize, usize) -> bool) -> PolyMesh {
-    let at = |i: usize, j: usize| (j * m + i) as u32;
-    let positions: Vec<DVec3> = (0..m * m)
-        .map(|k| {
-            let (x, y) = (
-                (k % m) as f64 / (m - 1) as f64,
-                (k / m) as f64 / (m - 1) as f64,
-            );
-            DVec3::new(x, y, z * (3.0 * x).sin() * (2.0 * y).cos())
-        })
+    let n = m - 1;
+    let (flat, cells) = qm_shapes::plane(n as u32);
+    let positions = flat
+        .into_iter()
+        .map(|p| DVec3::new(p.x, p.y, z * (3.0 * p.x).sin() * (2.0 * p.y).cos()))
         .collect();
-    let mut faces = Vec::new();
-    for j in 0..m - 1 {
-        for i in 0..m - 1 {
-            if keep(i, j) {
-                faces.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
-            }
-            faces.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
-        }
-    }
+    // Cell k's triangles are 2 k and 2 k + 1.
+    let faces: Vec<[u32; 3]> = cells
+        .into_iter()
+        .enumerate()
+        .filter(|&(k, _)| k % 2 == 1 || keep(k / 2 % n, k / 2 / n))
+        .map(|(_, t)| t)
+        .collect();
     PolyMesh::from_faces(positions, &faces)
 }
 

@@ -121,17 +121,9 @@ mod tests {
                 positions.push(p);
             }
         }
-        let at = |i: u32, j: u32| j * 9 + i;
-        let mut triangles = Vec::new();
-        for j in 0..2 {
-            for i in 0..8 {
-                triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
-                triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
-            }
-        }
         let mesh = TriMesh {
             positions,
-            triangles,
+            triangles: qm_shapes::grid_triangles(8, 2),
         };
         let topo = cut::Topology::new(&mesh);
         let d = density(&mesh, &topo, 0.5);

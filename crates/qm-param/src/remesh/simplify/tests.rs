@@ -125,17 +125,9 @@ fn ridges() -> (TriMesh, Vec<(u32, std::ops::RangeInclusive<u32>)>) {
             positions.push(DVec3::new(p.x, p.y, z));
         }
     }
-    let at = |i: u32, j: u32| j * (w + 1) + i;
-    let mut triangles = Vec::new();
-    for j in 0..h {
-        for i in 0..w {
-            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
-            triangles.extend([[a, b, c], [a, c, d]]);
-        }
-    }
     let mesh = TriMesh {
         positions,
-        triangles,
+        triangles: qm_shapes::grid_triangles(w, h),
     };
     (mesh, ridges)
 }
@@ -206,7 +198,7 @@ fn a_ring_no_fan_fills_is_retriangulated() {
 
 #[test]
 fn a_sphere_simplifies_to_its_target_and_every_vertex_is_mapped() {
-    let sphere = crate::remesh::tests::sphere(32);
+    let sphere = qm_shapes::uv_sphere_poles_first(16, 32);
     let mesh = &crate::clean::clean(&sphere).unwrap().components[0];
     let base = simplify(mesh, 40);
     assert!(
@@ -239,7 +231,7 @@ fn assert_mapped(base: &Base) {
 /// nothing.
 #[test]
 fn a_run_keeps_the_bases_it_passes_through() {
-    let sphere = crate::remesh::tests::sphere(32);
+    let sphere = qm_shapes::uv_sphere_poles_first(16, 32);
     let mesh = &crate::clean::clean(&sphere).unwrap().components[0];
     let simplified = simplify_part(mesh, 40, &[10, 400, 100]);
     let counts: Vec<usize> = simplified.passed.iter().map(|(c, _)| *c).collect();

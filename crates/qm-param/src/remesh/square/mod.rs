@@ -316,22 +316,11 @@ mod tests {
 
     /// A bumpy open `n x n` grid patch: one boundary loop, already a disk.
     fn patch(n: u32) -> TriMesh {
-        let mut positions = Vec::new();
-        for j in 0..=n {
-            for i in 0..=n {
-                let (x, y) = (i as f64 / n as f64, j as f64 / n as f64);
-                let z = 0.3 * (7.0 * x).sin() * (5.0 * y).cos();
-                positions.push(DVec3::new(x, y, z));
-            }
-        }
-        let at = |i: u32, j: u32| j * (n + 1) + i;
-        let mut triangles = Vec::new();
-        for j in 0..n {
-            for i in 0..n {
-                triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
-                triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
-            }
-        }
+        let (flat, triangles) = qm_shapes::plane(n);
+        let positions = flat
+            .into_iter()
+            .map(|p| DVec3::new(p.x, p.y, 0.3 * (7.0 * p.x).sin() * (5.0 * p.y).cos()))
+            .collect();
         TriMesh {
             positions,
             triangles,
