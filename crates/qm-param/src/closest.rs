@@ -162,6 +162,7 @@ fn morton(x: u64) -> u64 {
 }
 
 /// `p` as parry's vector.
+#[inline]
 pub(crate) fn to_parry(p: DVec3) -> Vector {
     Vector::new(p.x, p.y, p.z)
 }

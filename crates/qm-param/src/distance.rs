@@ -334,7 +334,12 @@ impl<'a> Triangles<'a> {
 
     /// The closest-point search over these triangles, moved by `-origin`.
     fn closest(&self, origin: DVec3) -> Closest {
-        Closest::new(self.positions, &self.triangles, [self.min, self.max], origin)
+        Closest::new(
+            self.positions,
+            &self.triangles,
+            [self.min, self.max],
+            origin,
+        )
     }
 
     fn corners(&self, t: usize) -> [DVec3; 3] {
