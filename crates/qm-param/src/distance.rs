@@ -25,20 +25,20 @@
 //! (Metro adds them; with many samples they change nothing but bias small
 //! sample counts towards vertices).
 //!
-//! Closest points come from a `parry3d-f64` BVH over runs of nearby
-//! triangles (see `Closest`). The `f64` build is used because qm quantizes
-//! up to 24 bits per coordinate, an error of `2^-24` of the box, which
-//! `f32` projections could not resolve.
+//! Closest points come from module `closest`'s exact search, a
+//! `parry3d-f64` BVH over runs of nearby triangles; [`Surface`] offers it
+//! for any mesh. The `f64` build is used because qm quantizes up to 24 bits
+//! per coordinate, an error of `2^-24` of the box, which `f32` projections
+//! could not resolve. The remesher's normal placement asks its own
+//! structure, which walks from nearby triangles and casts rays
+//! (docs/decisions/030-point-queries.md).
 
-use parry3d_f64::bounding_volume::Aabb;
-use parry3d_f64::math::Vector;
-use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy};
 use qm_io::SplitMix64;
 use qm_lift::glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::trimesh::closest_on_triangle;
+use crate::closest::Closest;
 use crate::{Error, PolyMesh, Result};
 
 /// Which input of [`distance`] a problem is about.
@@ -200,8 +200,7 @@ fn distance_at_scale(
         // Both meshes are moved by the same offset, symmetric in A and B, so
         // that parry works near the origin, where `f64` is densest.
         let origin = 0.5 * (ta.bbox_center() + tb.bbox_center());
-        let (mesh_a, mesh_b) =
-            rayon::join(|| Closest::new(&ta, origin), || Closest::new(&tb, origin));
+        let (mesh_a, mesh_b) = rayon::join(|| ta.closest(origin), || tb.closest(origin));
         let (a_to_b, b_to_a) = rayon::join(
             || one_sided(&ta, &mesh_b, origin, options),
             || one_sided(&tb, &mesh_a, origin, options),
@@ -226,7 +225,8 @@ fn distance_at_scale(
 }
 
 /// Closest points on a mesh's surface, fanned into triangles as
-/// [`distance`] fans it.
+/// [`distance`] fans it: the crate's answer to "which point of this mesh is
+/// closest", exact, for any mesh.
 pub struct Surface {
     mesh: Closest,
     origin: DVec3,
@@ -247,7 +247,7 @@ impl Surface {
         let triangles = Triangles::new(&mesh, Side::A)?;
         let origin = triangles.bbox_center();
         Ok(Surface {
-            mesh: Closest::new(&triangles, origin),
+            mesh: triangles.closest(origin),
             origin,
             scale,
         })
@@ -257,124 +257,6 @@ impl Surface {
     pub fn closest(&self, p: DVec3) -> DVec3 {
         (self.mesh.project(p * self.scale - self.origin) + self.origin) / self.scale
     }
-}
-
-/// Closest points on a set of triangles. The triangles are put in Morton
-/// order of their centroids and cut into runs of [`RUN`]; the BVH holds one
-/// leaf a run, so that its build, which dominated the remesher's measure of
-/// a million-sample remesh, costs a few times less, at a few more triangle
-/// tests a query. The triangles keep their corners' indices, into positions
-/// numbered in the order the sorted triangles first use them, so that a
-/// run's corners lie close in memory: a triangle takes 12 bytes and a vertex
-/// 24, where its three corners took 72 (a million-sample remesh's measure
-/// took about 400 MB).
-struct Closest {
-    /// The positions (less the origin), in the order of first use.
-    positions: Vec<DVec3>,
-    /// The triangles, in Morton order.
-    triangles: Vec<[u32; 3]>,
-    /// One leaf a run of [`RUN`] triangles.
-    bvh: Bvh,
-}
-
-/// Triangles a leaf of [`Closest`]'s BVH.
-const RUN: usize = 4;
-
-impl Closest {
-    fn new(triangles: &Triangles, origin: DVec3) -> Closest {
-        let (min, max) = (triangles.min - origin, triangles.max - origin);
-        // Each axis over its own extent: over the longest one, a needle's
-        // centroids all fell in one column of cells, the runs took
-        // triangles from all around it and every query tried every run.
-        let top = ((1u64 << 21) - 1) as f64;
-        let scale = top / (max - min).max(DVec3::splat(f64::MIN_POSITIVE));
-        let mut keyed: Vec<(u64, u32)> = triangles
-            .triangles
-            .par_iter()
-            .enumerate()
-            .map(|(i, t)| {
-                let [p, q, r] = t.map(|i| triangles.positions[i as usize] - origin);
-                let cell =
-                    (((p + q + r) / 3.0 - min) * scale).clamp(DVec3::ZERO, DVec3::splat(top));
-                let key =
-                    morton(cell.x as u64) | morton(cell.y as u64) << 1 | morton(cell.z as u64) << 2;
-                (key, i as u32)
-            })
-            .collect();
-        keyed.par_sort_unstable_by_key(|&(key, _)| key);
-        let mut number = vec![u32::MAX; triangles.positions.len()];
-        let mut positions = Vec::new();
-        let sorted: Vec<[u32; 3]> = keyed
-            .iter()
-            .map(|&(_, t)| {
-                triangles.triangles[t as usize].map(|v| {
-                    let n = &mut number[v as usize];
-                    if *n == u32::MAX {
-                        *n = positions.len() as u32;
-                        positions.push(triangles.positions[v as usize] - origin);
-                    }
-                    *n
-                })
-            })
-            .collect();
-        drop((keyed, number));
-        let leaves: Vec<Aabb> = sorted
-            .par_chunks(RUN)
-            .map(|run| {
-                let corners = run.iter().flat_map(|t| t.map(|v| positions[v as usize]));
-                Aabb::from_points(corners.map(to_parry))
-            })
-            .collect();
-        let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves);
-        Closest {
-            positions,
-            triangles: sorted,
-            bvh,
-        }
-    }
-
-    /// The corners of sorted triangle `t`.
-    fn corners(&self, t: &[u32; 3]) -> [DVec3; 3] {
-        t.map(|v| self.positions[v as usize])
-    }
-
-    /// The point of the triangles closest to `p`.
-    fn project(&self, p: DVec3) -> DVec3 {
-        // Best first by squared distances, to the leaves' boxes and then to
-        // their triangles.
-        let query = to_parry(p);
-        let found = self.bvh.find_best(
-            f64::MAX,
-            |node, _| {
-                let outside = (node.mins() - query)
-                    .max(query - node.maxs())
-                    .max(Vector::ZERO);
-                outside.length_squared()
-            },
-            |leaf, _| {
-                let start = leaf as usize * RUN;
-                let run = &self.triangles[start..(start + RUN).min(self.triangles.len())];
-                run.iter()
-                    .map(|t| {
-                        let (q, _) = closest_on_triangle(p, self.corners(t));
-                        ((q - p).length_squared(), q)
-                    })
-                    .min_by(|x, y| x.0.total_cmp(&y.0))
-            },
-        );
-        // The BVH is never empty: `Triangles` holds a triangle at least.
-        found.map_or(p, |(_, (_, q))| q)
-    }
-}
-
-/// The bits of `x` (21 of them) spread to every third bit.
-fn morton(x: u64) -> u64 {
-    let mut x = x & 0x1f_ffff;
-    x = (x | x << 32) & 0x1f_0000_0000_ffff;
-    x = (x | x << 16) & 0x1f_0000_ff00_00ff;
-    x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
-    x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
-    (x | x << 2) & 0x1249_2492_4924_9249
 }
 
 /// A mesh fanned into triangles of positive area.
@@ -448,6 +330,16 @@ impl<'a> Triangles<'a> {
 
     fn bbox_center(&self) -> DVec3 {
         0.5 * (self.min + self.max)
+    }
+
+    /// The closest-point search over these triangles, moved by `-origin`.
+    fn closest(&self, origin: DVec3) -> Closest {
+        Closest::new(
+            self.positions,
+            &self.triangles,
+            [self.min, self.max],
+            origin,
+        )
     }
 
     fn corners(&self, t: usize) -> [DVec3; 3] {
@@ -548,10 +440,6 @@ impl Partial {
     }
 }
 
-fn to_parry(p: DVec3) -> Vector {
-    Vector::new(p.x, p.y, p.z)
-}
-
 #[cfg(test)]
 mod tests {
     use qm_shapes::{poly, square, uv_sphere};
@@ -576,7 +464,7 @@ mod tests {
         }
         let triangles = Triangles::new(&mesh, Side::A).unwrap();
         let origin = DVec3::new(0.1, -0.2, 0.3) * stretch;
-        let closest = Closest::new(&triangles, origin);
+        let closest = triangles.closest(origin);
         let mut rng = SplitMix64::new(7);
         for _ in 0..2000 {
             let p =
@@ -588,7 +476,7 @@ mod tests {
                 .iter()
                 .map(|t| {
                     let corners = t.map(|i| mesh.positions[i as usize] - origin);
-                    (closest_on_triangle(q, corners).0 - q).length()
+                    (crate::trimesh::closest_on_triangle(q, corners).0 - q).length()
                 })
                 .fold(f64::INFINITY, f64::min);
             assert!(

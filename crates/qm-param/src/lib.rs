@@ -20,6 +20,7 @@
 //! `qm-lift`'s types; it knows nothing of trees, coding or files.
 
 pub mod clean;
+mod closest;
 pub mod distance;
 mod error;
 mod quads;

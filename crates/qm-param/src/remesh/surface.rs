@@ -34,12 +34,19 @@
 //! A walk answers a sample's own closest point several times faster than
 //! the hierarchy, at the same remesh PSNR
 //! (docs/decisions/007-normal-placement.md).
+//!
+//! Elsewhere the crate asks module `closest` (the distance, the remesher's
+//! measure, the holds' feet). This surface keeps parry's hierarchy: its
+//! answers, the foot's triangle included, set the samples, and that search
+//! computes the feet with other arithmetic and may pick another of several
+//! equidistant triangles (docs/decisions/030-point-queries.md).
 
 use parry3d_f64::math::Vector;
 use parry3d_f64::query::{PointQueryWithLocation, Ray, RayCast};
 use parry3d_f64::shape::TriMesh as ParryMesh;
 use qm_lift::glam::DVec3;
 
+use crate::closest::to_parry;
 use crate::trimesh::{Feature, closest_on_triangle};
 use crate::{Error, RemeshFailure, Result, TriMesh};
 
@@ -530,10 +537,6 @@ fn ray_triangle(a: DVec3, b: DVec3, c: DVec3, origin: DVec3, dir: DVec3) -> Opti
     }
     let invd = 1.0 / d;
     Some(if t < 0.0 { -t * invd } else { t * invd })
-}
-
-fn to_parry(p: DVec3) -> Vector {
-    Vector::new(p.x, p.y, p.z)
 }
 
 fn from_parry(p: Vector) -> DVec3 {
