@@ -1,4 +1,4 @@
-//! `cargo xtask scale [--sizes 0.5M,2M,8M] [--max-memory SIZE] [--no-draco]`:
+//! `cargo xtask scale [--sizes 0.5M,2M,8M] [--max-memory SIZE] [--no-draco] [--keep DIR]`:
 //! qm on dense scan-like meshes of growing size against Google Draco.
 //!
 //! Each size is a closed, noisy, bumpy sphere of about that many triangles
@@ -11,7 +11,8 @@
 //! prefixes and Draco's `-qp` settings are then measured against the input
 //! with the symmetric surface distance, as `rd-curve` does, and one
 //! Markdown row per size gives time, peak, estimate, the lossless PSNR and
-//! the bytes each coder needs for 65 and 78 dB.
+//! the bytes each coder needs for 65 and 78 dB. `--keep DIR` keeps each
+//! generated input (`scan-N.ply`) and its stream (`scan-N.qm`) there.
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -44,6 +45,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
     let max_memory = take(&mut args, "--max-memory", "a size such as 20G")?
         .map(|m| memory_bytes(&m))
         .transpose()?;
+    let keep = take(&mut args, "--keep", "a folder")?;
     let no_draco = match args.iter().position(|a| a == "--no-draco") {
         Some(at) => {
             args.remove(at);
@@ -73,7 +75,11 @@ pub fn run(args: &[String]) -> Result<(), String> {
         let input = scan_like(size);
         let triangles = input.face_count();
         let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
-        let (mesh_file, qm_file) = (dir.path().join("in.ply"), dir.path().join("out.qm"));
+        let folder = keep.as_ref().map_or(dir.path(), Path::new);
+        let (mesh_file, qm_file) = (
+            folder.join(format!("scan-{triangles}.ply")),
+            folder.join(format!("scan-{triangles}.qm")),
+        );
         eprintln!("{triangles} triangles: writing the input");
         qm::write_mesh(&mesh_file, &input).map_err(|e| e.to_string())?;
         eprintln!("{triangles} triangles: qm compress");
