@@ -151,34 +151,32 @@ pub fn run(args: &[String]) -> Result<(), String> {
 
 /// `500000`, `0.5M` or `2k`: a triangle count.
 fn triangle_count(text: &str) -> Result<usize, String> {
-    let t = text.trim();
-    let (number, scale) = match t.char_indices().last() {
-        Some((at, 'M' | 'm')) => (&t[..at], 1e6),
-        Some((at, 'K' | 'k')) => (&t[..at], 1e3),
-        _ => (t, 1.0),
-    };
-    match number.parse::<f64>() {
-        Ok(n) if n * scale >= 12.0 && n * scale <= 1e9 => Ok((n * scale) as usize),
+    match with_unit(text, 1000.0) {
+        Some(n) if (12.0..=1e9).contains(&n) => Ok(n as usize),
         _ => Err(format!("{text:?}: not a triangle count from 12 to 1G")),
     }
 }
 
 /// `20G`, `512M` or a number of bytes (binary units).
 fn memory_bytes(text: &str) -> Result<u64, String> {
-    let t = text.trim();
-    let (number, shift) = match t.char_indices().last() {
-        Some((at, 'T' | 't')) => (&t[..at], 40),
-        Some((at, 'G' | 'g')) => (&t[..at], 30),
-        Some((at, 'M' | 'm')) => (&t[..at], 20),
-        Some((at, 'K' | 'k')) => (&t[..at], 10),
-        _ => (t, 0),
-    };
-    match number.parse::<f64>() {
-        Ok(n) if n > 0.0 && n * ((1u64 << shift) as f64) < 1.8e19 => {
-            Ok((n * (1u64 << shift) as f64) as u64)
-        }
+    match with_unit(text, 1024.0) {
+        Some(n) if n > 0.0 && n < 1.8e19 => Ok(n as u64),
         _ => Err(format!("{text:?}: not a memory size such as 20G")),
     }
+}
+
+/// A number with an optional unit `K`, `M`, `G` or `T`: `base` to the
+/// first to fourth power.
+fn with_unit(text: &str, base: f64) -> Option<f64> {
+    let t = text.trim();
+    let (number, power) = match t.char_indices().last() {
+        Some((at, c)) => match "KMGT".find(c.to_ascii_uppercase()) {
+            Some(k) => (&t[..at], k as i32 + 1),
+            None => (t, 0),
+        },
+        None => (t, 0),
+    };
+    Some(number.parse::<f64>().ok()? * base.powi(power))
 }
 
 /// Runs in the child: compresses `input` into `output` and prints its
