@@ -38,7 +38,7 @@
 //! - `memory [--max-level L] [MESH[:DOMAIN] ...]`: peak memory of compress
 //!   against the memory model's estimate, on soups, fans, a plane at levels
 //!   6 to `L` and the bunny. See [`memory`].
-//! - `scale [--sizes 0.5M,2M,8M] [--max-memory SIZE] [--no-draco] [--keep DIR]`: time,
+//! - `scale [--sizes 0.5M,2M,8M] [--mesh FILE] [--max-memory SIZE] [--no-draco] [--keep DIR]`: time,
 //!   peak memory, estimate, lossless PSNR and bytes at 65 and 78 dB against
 //!   Draco on dense scan-like meshes. See [`scale`].
 
@@ -89,7 +89,7 @@ fn main() -> ExitCode {
                   cargo xtask valence [--max N]\n       \
                   cargo xtask decode-time FILE.qm [--runs N] [--bytes N ...]\n       \
                   cargo xtask memory [--max-level L] [MESH[:DOMAIN] ...]\n       \
-                  cargo xtask scale [--sizes 0.5M,2M,8M] [--max-memory SIZE] [--no-draco] [--keep DIR]"
+                  cargo xtask scale [--sizes 0.5M,2M,8M] [--mesh FILE] [--max-memory SIZE] [--no-draco] [--keep DIR]"
             .to_string()),
     };
     match result {

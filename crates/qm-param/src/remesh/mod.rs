@@ -58,11 +58,12 @@ mod tests;
 use qm_io::PolyMesh;
 use qm_lift::SemiRegularMesh;
 
-pub use budget::MAX_SAMPLES_PER_VERTEX;
+pub use budget::{DENSE_SAMPLES_PER_VERTEX, MAX_SAMPLES_PER_VERTEX};
 use memory::with_memory;
 pub use memory::{
-    BYTES_PER_PART, BYTES_PER_SAMPLE, BYTES_PER_TRIANGLE, FIXED_BYTES, MEASURE_BYTES_PER_SAMPLE,
-    check_memory, encode_memory,
+    BYTES_PER_PART, BYTES_PER_SAMPLE, BYTES_PER_TRIANGLE, FACTOR_BYTES_PER_UNKNOWN_LOG2,
+    FIXED_BYTES, MEASURE_BYTES_PER_SAMPLE, SYSTEM_BYTES_PER_UNKNOWN, check_memory, encode_memory,
+    square_system_memory,
 };
 pub use options::{
     BaseDomain, ComponentReport, DEFAULT_MAX_MEMORY, DEFAULT_MIN_PSNR, NormalReport, RemeshOptions,

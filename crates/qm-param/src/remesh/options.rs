@@ -18,8 +18,10 @@ pub struct RemeshOptions {
     pub level: Option<u32>,
     /// Samples to aim for per input vertex when choosing the level.
     pub samples_per_vertex: f64,
-    /// Most samples to aim for, whatever the input's size (dense scans need
-    /// far fewer samples per vertex than coarse models).
+    /// Most samples to aim for (dense scans need far fewer samples per
+    /// vertex than coarse models), unless the input has more vertices:
+    /// then [`DENSE_SAMPLES_PER_VERTEX`](super::budget::DENSE_SAMPLES_PER_VERTEX)
+    /// a vertex, so that the ceiling follows the input, not this count.
     pub max_samples: usize,
     /// Stretch-reweighting iterations of the parameterization.
     pub stretch_iterations: usize,

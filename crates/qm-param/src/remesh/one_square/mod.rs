@@ -20,7 +20,7 @@ pub(super) use level::square_samples;
 
 use super::budget::{MAX_SAMPLES_PER_VERTEX, area_shares, target_samples};
 use super::finish::{check_patch, finish, part};
-use super::memory::check_memory;
+use super::memory::{check_memory, encode_memory, largest_square_system, refuse_above};
 use super::options::{BaseDomain, ComponentReport, RemeshOptions, Remeshed};
 use super::{resample, square};
 use crate::clean::Cleaned;
@@ -54,6 +54,20 @@ pub(super) fn remesh_square(
     let (total_area, shares) = area_shares(&cleaned.components)?;
     // Never more than MAX_SAMPLES_PER_VERTEX times the input's vertices.
     let target = target_samples(options, input_vertices);
+    // Refused before charting where the largest part's system beside the
+    // samples aimed for is over the limit.
+    let parts = cleaned.components.len() as u64;
+    let measured = options.domain == BaseDomain::Auto;
+    let system = largest_square_system(&cleaned);
+    let needed = |samples: u64| {
+        encode_memory(input_triangles, parts, samples, measured).saturating_add(system)
+    };
+    refuse_above(
+        needed(target as u64),
+        options.max_memory,
+        input_triangles,
+        target as u64,
+    )?;
     let spacing = (total_area / target).sqrt();
     let sizing = Sizing {
         target,
@@ -94,9 +108,6 @@ pub(super) fn remesh_square(
     }
     // The level's samples, before any is made.
     let samples: f64 = charts.iter().map(|c| square_samples(c.map.k, level)).sum();
-    let parts = charts.len() as u64;
-    // One square per part is measured where `auto` weighs it.
-    let measured = options.domain == BaseDomain::Auto;
     check_memory(
         input_triangles,
         parts,
@@ -131,5 +142,8 @@ pub(super) fn remesh_square(
         };
         patches.push((patch, report));
     }
-    finish(cleaned, patches, level, options, false)
+    // The report's estimate: the systems' peak, past now, with the rest.
+    let mut remeshed = finish(cleaned, patches, level, options, false)?;
+    remeshed.report.memory = remeshed.report.memory.max(needed(samples as u64));
+    Ok(remeshed)
 }

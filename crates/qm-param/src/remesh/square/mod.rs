@@ -38,7 +38,8 @@ use super::cut::Disk;
 use crate::Result;
 pub use boundary::Segment;
 use boundary::{layout, perimeter_point, snap_corners};
-use system::{LU_BELOW, System};
+pub(crate) use system::LU_BELOW;
+use system::System;
 
 /// Smallest relative stretch improvement worth another reweighting (each is
 /// a sparse factorization) (docs/decisions/013-square-map.md).
@@ -85,11 +86,15 @@ pub fn parameterize(
         k *= 2;
         sizes.push(k);
     }
-    // The sizes are independent: solve them in parallel, pick in order.
-    let maps: Vec<Result<SquareMap>> = sizes
-        .par_iter()
-        .map(|&k| parameterize_k(disk, density, k, iterations, None))
-        .collect();
+    // The sizes are independent: solve them in parallel, pick in order;
+    // one after another where each holds a large factorization, so that
+    // the peak is one system's, not one per thread.
+    let map = |&k: &usize| parameterize_k(disk, density, k, iterations, None);
+    let maps: Vec<Result<SquareMap>> = if unknowns(disk) < LU_BELOW {
+        sizes.par_iter().map(map).collect()
+    } else {
+        sizes.iter().map(map).collect()
+    };
     let mut maps = maps.into_iter();
     let mut best = maps.next().expect("at least one size")?;
     for trial in maps {
@@ -99,6 +104,11 @@ pub fn parameterize(
         }
     }
     Ok(best)
+}
+
+/// The unknowns of `disk`'s systems: its vertices off the boundary.
+fn unknowns(disk: &Disk) -> usize {
+    disk.positions.len().saturating_sub(disk.boundary.len())
 }
 
 /// Whether map `a` is clearly better than map `b`: fewer folds, or as many

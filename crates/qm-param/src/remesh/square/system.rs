@@ -21,7 +21,7 @@ use crate::{Error, RemeshFailure, Result};
 
 /// Systems with fewer unknowns are solved by a sparse LU (module `lu`);
 /// larger ones by BiCGSTAB with a Cholesky preconditioner (see [`System`]).
-pub(super) const LU_BELOW: usize = 100_000;
+pub(crate) const LU_BELOW: usize = 100_000;
 
 /// Most BiCGSTAB iterations per solve (see [`System`]).
 const REFINEMENTS: usize = 200;
