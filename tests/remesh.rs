@@ -239,3 +239,33 @@ fn high_valence_hubs_remesh() {
         assert!(d.psnr_db > 60.0, "{name}: {} dB", d.psnr_db);
     }
 }
+
+/// `prepare_reporting` announces the steps of `auto` as they start: the
+/// clean-up first, both base domains' steps (made side by side), and the
+/// measure that chooses between them; the remesh is the one `prepare` makes.
+#[test]
+fn the_steps_of_a_remesh_are_announced() {
+    use qm::param::Step;
+    use std::sync::Mutex;
+    let input = torus(24, 12);
+    let steps = Mutex::new(Vec::new());
+    let report = |step: Step| steps.lock().unwrap().push(step);
+    let options = RemeshOptions::DEFAULT;
+    let reported = qm::prepare_reporting(&input, &options, &report).unwrap();
+    let steps = steps.into_inner().unwrap();
+    assert_eq!(steps.first(), Some(&Step::Cleaning), "{steps:?}");
+    for step in [
+        Step::MappingSquares,
+        Step::SamplingSquares,
+        Step::Simplifying,
+        Step::MappingCharts,
+        Step::Measuring,
+    ] {
+        assert!(steps.contains(&step), "{step:?} missing from {steps:?}");
+    }
+    let position = |s: Step| steps.iter().position(|&t| t == s).unwrap();
+    assert!(position(Step::MappingSquares) < position(Step::SamplingSquares));
+    assert!(position(Step::Simplifying) < position(Step::MappingCharts));
+    let plain = qm::prepare(&input, &options).unwrap();
+    assert_eq!(plain.mesh.positions(), reported.mesh.positions());
+}

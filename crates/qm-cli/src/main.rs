@@ -442,7 +442,9 @@ fn compress(
     progress.step("reading mesh");
     let mesh = qm::read_mesh(input).map_err(|e| Failure::about(input, e))?;
     progress.step("making the mesh semi-regular (subdivision connectivity or remeshing)");
-    let prepared = qm::prepare(&mesh, remesh_options).map_err(|e| Failure::about(input, e))?;
+    let remeshing = |step: qm::param::Step| progress.step(format!("remeshing: {step}"));
+    let prepared = qm::prepare_reporting(&mesh, remesh_options, &remeshing)
+        .map_err(|e| Failure::about(input, e))?;
     progress.suspend(|| {
         if let (false, Some(r)) = (quiet, &prepared.remeshed) {
             report_remesh(input, r);
@@ -489,8 +491,9 @@ fn remesh(
     let progress = Progress::new(quiet);
     progress.step("reading mesh");
     let mesh = qm::read_mesh(input).map_err(|e| Failure::about(input, e))?;
-    progress.step("cleaning, cutting, parameterizing and resampling");
-    let remeshed = qm::remesh(&mesh, options).map_err(|e| Failure::about(input, e))?;
+    let remeshing = |step: qm::param::Step| progress.step(format!("remeshing: {step}"));
+    let remeshed = qm::param::remesh_reporting(&mesh, options, &remeshing)
+        .map_err(|e| Failure::about(input, qm::Error::from(e)))?;
     let layout = remeshed.mesh.layout();
     let quads = layout.quads(layout.level());
     let out = qm::PolyMesh::from_faces(remeshed.mesh.positions().to_vec(), &quads);

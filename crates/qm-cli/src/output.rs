@@ -172,7 +172,7 @@ impl Progress {
         Progress(Some(bar))
     }
 
-    pub fn step(&self, message: &'static str) {
+    pub fn step(&self, message: impl Into<std::borrow::Cow<'static, str>>) {
         if let Some(bar) = &self.0 {
             bar.set_message(message);
         }

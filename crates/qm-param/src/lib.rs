@@ -34,6 +34,9 @@ pub use error::{Error, Part, RemeshFailure, Result};
 pub use qm_io::PolyMesh;
 pub use qm_lift::ErrorKind;
 pub use qm_lift::SemiRegularMesh;
-pub use remesh::{BaseDomain, NormalReport, RemeshOptions, RemeshReport, Remeshed, remesh};
+pub use remesh::{
+    BaseDomain, NormalReport, RemeshOptions, RemeshReport, Remeshed, Reporter, Step, remesh,
+    remesh_reporting,
+};
 pub use subdivision::{Detected, detect_subdivision};
 pub use trimesh::{TriMesh, triangle_area};

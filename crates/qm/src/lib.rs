@@ -214,6 +214,17 @@ pub struct Prepared {
 /// [`param::remesh::encode_memory`] estimates it) is refused before it
 /// starts.
 pub fn prepare(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Prepared> {
+    prepare_reporting(mesh, options, &|_| {})
+}
+
+/// [`prepare`], announcing each step of a remesh ([`param::Step`]) to
+/// `report` as it starts, for a progress display; it is called from the
+/// remesher's threads.
+pub fn prepare_reporting(
+    mesh: &PolyMesh,
+    options: &RemeshOptions,
+    report: param::Reporter<'_>,
+) -> Result<Prepared> {
     if mesh.all_faces_have(4) {
         match qm_param::detect_subdivision(mesh) {
             Ok(d) => {
@@ -229,7 +240,7 @@ pub fn prepare(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Prepared> {
             Err(e) => return Err(e.into()),
         }
     }
-    let r = qm_param::remesh(mesh, options)?;
+    let r = qm_param::remesh_reporting(mesh, options, report)?;
     Ok(Prepared {
         mesh: r.mesh,
         source: None,

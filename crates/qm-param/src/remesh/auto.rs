@@ -19,6 +19,7 @@ use super::one_square::remesh_square;
 use super::options::BaseDomain;
 use super::options::{RemeshOptions, Remeshed};
 use super::simplified::remesh_charts;
+use super::steps::{Reporter, Step};
 use crate::clean::Cleaned;
 use crate::{Error, PolyMesh, RemeshFailure, Result};
 
@@ -52,9 +53,10 @@ pub(super) fn remesh_auto(
     cleaned: Cleaned,
     input_triangles: u64,
     options: &RemeshOptions,
+    report: Reporter<'_>,
 ) -> Result<Remeshed> {
     let triangles: usize = cleaned.components.iter().map(|c| c.triangles.len()).sum();
-    let remeshed = remesh_both(mesh, cleaned, input_triangles, options);
+    let remeshed = remesh_both(mesh, cleaned, input_triangles, options, report);
     // A level asked for is a remesh asked for.
     if triangles > EXACT_MOST_TRIANGLES || options.level.is_some() {
         return remeshed;
@@ -69,13 +71,15 @@ fn remesh_both(
     cleaned: Cleaned,
     input_triangles: u64,
     options: &RemeshOptions,
+    report: Reporter<'_>,
 ) -> Result<Remeshed> {
     let square = |cleaned: Cleaned| -> Result<Remeshed> {
-        let mut square = remesh_square(cleaned, input_triangles, options)?;
+        let mut square = remesh_square(cleaned, input_triangles, options, report)?;
+        report(Step::Measuring);
         square.report.psnr = Some(measure(mesh, &square.mesh)?);
         Ok(square)
     };
-    let charts = |cleaned: Cleaned| remesh_charts(mesh, cleaned, input_triangles, options);
+    let charts = |cleaned: Cleaned| remesh_charts(mesh, cleaned, input_triangles, options, report);
     if let Some(loops) = too_many_loops(&cleaned) {
         // Charts alone; one square per part only where they fail.
         return match charts(cleaned.clone()) {

@@ -52,6 +52,7 @@ mod memory;
 mod one_square;
 mod options;
 mod simplified;
+mod steps;
 #[cfg(test)]
 mod tests;
 
@@ -69,6 +70,7 @@ pub use options::{
     BaseDomain, ComponentReport, DEFAULT_MAX_MEMORY, DEFAULT_MIN_PSNR, NormalReport, RemeshOptions,
     RemeshReport, Remeshed,
 };
+pub use steps::{Reporter, Step};
 
 use crate::clean::clean;
 use crate::error::Result;
@@ -85,12 +87,21 @@ use crate::error::Result;
 /// (light years, nanometres) is scaled by a power of two
 /// ([`qm_lift::unit_scale`], exact both ways) for the work and scaled back.
 pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
+    remesh_reporting(mesh, options, &|_| {})
+}
+
+/// [`remesh`], announcing each [`Step`] to `report` as it starts.
+pub fn remesh_reporting(
+    mesh: &PolyMesh,
+    options: &RemeshOptions,
+    report: Reporter<'_>,
+) -> Result<Remeshed> {
     let scale = qm_lift::unit_scale(&mesh.positions);
     if scale == 1.0 {
-        return remesh_at_scale(mesh, options);
+        return remesh_at_scale(mesh, options, report);
     }
     let scaled = crate::distance::scaled(mesh, scale);
-    let Remeshed { mesh, report } = remesh_at_scale(&scaled, options)?;
+    let Remeshed { mesh, report } = remesh_at_scale(&scaled, options, report)?;
     let (layout, positions) = mesh.into_parts();
     let positions = positions.into_iter().map(|p| p / scale).collect();
     Ok(Remeshed {
@@ -100,7 +111,15 @@ pub fn remesh(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
 }
 
 /// [`remesh`] at a unit scale, step by step.
-fn remesh_at_scale(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed> {
+fn remesh_at_scale(
+    mesh: &PolyMesh,
+    options: &RemeshOptions,
+    report: Reporter<'_>,
+) -> Result<Remeshed> {
+    let clean = |mesh: &PolyMesh| {
+        report(Step::Cleaning);
+        clean(mesh)
+    };
     // Refused before any work where the input alone is over the memory
     // limit; each pipeline checks again before it makes its samples.
     let input_triangles = mesh.faces().map(|f| f.len().saturating_sub(2) as u64).sum();
@@ -110,14 +129,16 @@ fn remesh_at_scale(mesh: &PolyMesh, options: &RemeshOptions) -> Result<Remeshed>
         BaseDomain::Input => input::remesh_as_asked(mesh, options.level),
         // Clean-up; per part charting (a cut to a disk), parametrization
         // onto a square; one level; resampling.
-        BaseDomain::Square => one_square::remesh_square(clean(mesh)?, input_triangles, options),
+        BaseDomain::Square => {
+            one_square::remesh_square(clean(mesh)?, input_triangles, options, report)
+        }
         // Clean-up; simplification to a base; charting onto it, untangling
         // and relaxing; resampling; the measure.
         BaseDomain::Charts => {
-            simplified::remesh_charts(mesh, clean(mesh)?, input_triangles, options)
+            simplified::remesh_charts(mesh, clean(mesh)?, input_triangles, options, report)
         }
         // Clean-up; both of the above, measured, and the better.
-        BaseDomain::Auto => auto::remesh_auto(mesh, clean(mesh)?, input_triangles, options),
+        BaseDomain::Auto => auto::remesh_auto(mesh, clean(mesh)?, input_triangles, options, report),
     };
     // Reporting: the memory estimate of the work done.
     remeshed.map(|r| with_memory(r, input_triangles))

@@ -22,6 +22,7 @@ use super::budget::{MAX_SAMPLES_PER_VERTEX, area_shares, target_samples};
 use super::finish::{check_patch, finish, part};
 use super::memory::{check_memory, encode_memory, largest_square_system, refuse_above};
 use super::options::{BaseDomain, ComponentReport, RemeshOptions, Remeshed};
+use super::steps::{Reporter, Step};
 use super::{resample, square};
 use crate::clean::Cleaned;
 use crate::{Error, RemeshFailure, Result};
@@ -44,7 +45,9 @@ pub(super) fn remesh_square(
     mut cleaned: Cleaned,
     input_triangles: u64,
     options: &RemeshOptions,
+    report: Reporter<'_>,
 ) -> Result<Remeshed> {
+    report(Step::MappingSquares);
     let input_vertices: usize = cleaned.components.iter().map(|c| c.positions.len()).sum();
     for c in &mut cleaned.components {
         while c.triangles.len() < SMALL_PART {
@@ -126,6 +129,7 @@ pub(super) fn remesh_square(
         }
     }
     // Sample and stitch every component.
+    report(Step::SamplingSquares);
     let mut patches = Vec::with_capacity(charts.len());
     for (c, (chart, component)) in charts.iter().zip(&cleaned.components).enumerate() {
         let map = &chart.map;

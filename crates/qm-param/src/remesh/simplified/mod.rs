@@ -19,6 +19,7 @@ use sample::sample_charts;
 
 use super::options::{RemeshOptions, Remeshed};
 use super::simplify;
+use super::steps::{Reporter, Step};
 use crate::clean::Cleaned;
 use crate::{PolyMesh, Result};
 
@@ -36,8 +37,10 @@ pub(super) fn remesh_charts(
     cleaned: Cleaned,
     input_triangles: u64,
     options: &RemeshOptions,
+    report: Reporter<'_>,
 ) -> Result<Remeshed> {
     // Simplification to a base: the level, and each part's base for it.
+    report(Step::Simplifying);
     let Bases {
         bases,
         level,
@@ -47,6 +50,7 @@ pub(super) fn remesh_charts(
     } = simplify_to_bases(&cleaned, options)?;
     // Charting, untangling, relaxing, resampling and measuring at a level.
     let sample = |bases: Vec<simplify::Base>, level: u32, give_up: Option<usize>| {
+        report(Step::MappingCharts);
         sample_charts(
             mesh,
             cleaned.clone(),
@@ -56,6 +60,7 @@ pub(super) fn remesh_charts(
             give_up,
             input_triangles,
             options,
+            report,
         )
     };
     // A remesh made to the end: only a part allowed to give up does.

@@ -18,6 +18,7 @@ use crate::clean::Cleaned;
 use crate::remesh::finish::{check_patch, finish, measure, part};
 use crate::remesh::memory::check_memory;
 use crate::remesh::options::{ComponentReport, RemeshOptions, Remeshed};
+use crate::remesh::steps::{Reporter, Step};
 use crate::remesh::{charts, simplify};
 use crate::{Error, PolyMesh, RemeshFailure, Result, TriMesh};
 
@@ -67,6 +68,7 @@ pub(super) fn sample_charts(
     give_up: Option<usize>,
     input_triangles: u64,
     options: &RemeshOptions,
+    report: Reporter<'_>,
 ) -> Result<Option<Remeshed>> {
     let check_memory = |bases: &[simplify::Base]| -> Result<()> {
         let quads: usize = bases.iter().map(|b| 3 * b.triangles.len()).sum();
@@ -127,6 +129,7 @@ pub(super) fn sample_charts(
     }
     let mut remeshed = finish(cleaned, patches, level, options, true)?;
     remeshed.report.domain = "charts";
+    report(Step::Measuring);
     let psnr = measure(mesh, &remeshed.mesh)?;
     remeshed.report.psnr = Some(psnr);
     if psnr < options.min_psnr {
