@@ -40,7 +40,10 @@
 //!   debug builds. Positions and faces are the easy part of OBJ, so reading them
 //!   directly costs less than repairing all of that.
 
+mod asset;
 mod error;
+mod gltf_file;
+mod mtl;
 mod obj;
 mod off;
 mod ply;
@@ -55,6 +58,10 @@ use std::path::Path;
 
 use glam::DVec3;
 
+pub use asset::{
+    Asset, AssetOptions, AttributeKind, Dropped, Image, ImageSource, Material, TexCoords, Texture,
+    add_dropped,
+};
 pub use error::{MeshError, Problem};
 pub use glam;
 pub use polymesh::PolyMesh;
@@ -72,6 +79,11 @@ pub enum Format {
     Off,
     /// Stereolithography (ASCII or binary); read only.
     Stl,
+    /// glTF 2.0 as JSON, buffers in files beside it or in `data:` URIs; read
+    /// only.
+    Gltf,
+    /// glTF 2.0 binary (GLB); read only.
+    Glb,
 }
 
 impl Format {
@@ -83,6 +95,8 @@ impl Format {
             "ply" => Some(Format::Ply),
             "off" => Some(Format::Off),
             "stl" => Some(Format::Stl),
+            "gltf" => Some(Format::Gltf),
+            "glb" => Some(Format::Glb),
             _ => None,
         }
     }
@@ -92,6 +106,12 @@ impl Format {
     pub fn sniff(bytes: &[u8]) -> Option<Format> {
         if bytes.starts_with(b"ply\n") || bytes.starts_with(b"ply\r\n") {
             return Some(Format::Ply);
+        }
+        if bytes.starts_with(b"glTF") {
+            return Some(Format::Glb);
+        }
+        if gltf_file::looks_like_gltf_json(bytes) {
+            return Some(Format::Gltf);
         }
         // The size test comes before the text tests because binary STL headers
         // may begin with "solid" too.
@@ -121,13 +141,31 @@ impl fmt::Display for Format {
             Format::Ply => "PLY",
             Format::Off => "OFF",
             Format::Stl => "STL",
+            Format::Gltf => "glTF",
+            Format::Glb => "GLB",
         })
     }
 }
 
 /// Reads a mesh file, choosing the format by extension or, for an unknown
-/// extension, by content.
+/// extension, by content. Only positions and faces are read; a glTF file's
+/// external buffers are read from the file's folder.
 pub fn read_mesh(path: &Path) -> Result<PolyMesh, MeshError> {
+    read_file(path, None).map(|asset| asset.mesh)
+}
+
+/// Reads a mesh file with its appearance: what [`read_mesh`] reads, and
+/// vertex colours, texture coordinates, materials and their base colour
+/// textures where the format has them, with the list of what was not kept
+/// ([`Asset::dropped`]). Files the mesh file names (`.mtl`, images, glTF
+/// buffers) are resolved against its folder. A missing or unreadable
+/// material library or image is not an error: it is listed as dropped. (A
+/// missing glTF buffer is an error: the geometry is in it.)
+pub fn read_asset(path: &Path, options: &AssetOptions) -> Result<Asset, MeshError> {
+    read_file(path, Some(options))
+}
+
+fn read_file(path: &Path, appearance: Option<&AssetOptions>) -> Result<Asset, MeshError> {
     let file = path.display().to_string();
     let bytes = fs::read(path).map_err(|e| MeshError::io(&file, e))?;
     if bytes.is_empty() {
@@ -137,19 +175,82 @@ pub fn read_mesh(path: &Path) -> Result<PolyMesh, MeshError> {
         Some(format) => format,
         None => Format::sniff(&bytes).ok_or(MeshError::UnknownFormat { file: file.clone() })?,
     };
-    read_mesh_bytes(&bytes, format, &file)
+    let folder = match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => dir,
+        _ => Path::new("."),
+    };
+    let source = Source {
+        name: &file,
+        folder: Some(folder),
+        appearance,
+    };
+    read_source(&bytes, format, &source)
 }
 
 /// Reads a mesh in `format` from memory; `name` stands for the file in errors.
+/// A glTF file whose buffers are not inside it cannot be read this way.
 pub fn read_mesh_bytes(bytes: &[u8], format: Format, name: &str) -> Result<PolyMesh, MeshError> {
+    let source = Source {
+        name,
+        folder: None,
+        appearance: None,
+    };
+    read_source(bytes, format, &source).map(|asset| asset.mesh)
+}
+
+/// [`read_asset`] from memory; `name` stands for the file in errors. Files
+/// the mesh names (material libraries, images) cannot be found from memory
+/// and are listed as dropped; images inside a GLB are read.
+pub fn read_asset_bytes(
+    bytes: &[u8],
+    format: Format,
+    name: &str,
+    options: &AssetOptions,
+) -> Result<Asset, MeshError> {
+    let source = Source {
+        name,
+        folder: None,
+        appearance: Some(options),
+    };
+    read_source(bytes, format, &source)
+}
+
+/// What a reader needs besides the bytes.
+pub(crate) struct Source<'a> {
+    /// The file name, for errors.
+    name: &'a str,
+    /// The folder that names in the file are relative to; `None` for bytes
+    /// read from memory.
+    folder: Option<&'a Path>,
+    /// `None` to read geometry alone.
+    appearance: Option<&'a AssetOptions>,
+}
+
+fn read_source(bytes: &[u8], format: Format, source: &Source) -> Result<Asset, MeshError> {
+    let name = source.name;
     if bytes.is_empty() {
         return Err(MeshError::malformed(name, None, Problem::Empty));
     }
     match format {
-        Format::Obj => obj::read(bytes, name),
-        Format::Ply => ply::read(bytes, name),
-        Format::Off => off::read(bytes, name),
-        Format::Stl => stl::read(bytes, name),
+        Format::Obj => obj::read(bytes, source),
+        Format::Ply => ply::read(bytes, source),
+        Format::Off => {
+            let mut asset = Asset::of(off::read(bytes, name)?);
+            if source.appearance.is_some() {
+                off::report_variant(bytes, asset.mesh.positions.len(), &mut asset.dropped);
+            }
+            Ok(asset)
+        }
+        Format::Stl => {
+            let mut asset = Asset::of(stl::read(bytes, name)?);
+            if source.appearance.is_some() {
+                let facets = asset.mesh.face_count() as u64;
+                let detail = format!("{facets} facet normals (qm computes normals from the surface)");
+                add_dropped(&mut asset.dropped, AttributeKind::Normals, facets, detail);
+            }
+            Ok(asset)
+        }
+        Format::Gltf | Format::Glb => gltf_file::read(bytes, source),
     }
 }
 
@@ -255,7 +356,9 @@ fn write_unchecked(w: &mut impl Write, format: Format, mesh: &PolyMesh) -> io::R
     match format {
         Format::Obj => obj::write(&mut w, mesh)?,
         Format::Ply => ply::write(&mut w, mesh)?,
-        Format::Off | Format::Stl => unreachable!("check_writable refuses {format}"),
+        Format::Off | Format::Stl | Format::Gltf | Format::Glb => {
+            unreachable!("check_writable refuses {format}")
+        }
     }
     w.flush()
 }
@@ -269,7 +372,7 @@ fn check_writable(mesh: &PolyMesh, format: Format, file: &str) -> Result<(), Mes
     let max_corners = match format {
         Format::Obj => usize::MAX,
         Format::Ply => ply::MAX_WRITTEN_CORNERS,
-        Format::Off | Format::Stl => {
+        Format::Off | Format::Stl | Format::Gltf | Format::Glb => {
             return Err(MeshError::UnsupportedOutput {
                 file: file.to_owned(),
                 format,
