@@ -451,12 +451,13 @@ pub(crate) fn resolve(folder: &Path, name: &str) -> PathBuf {
 
 /// sRGB encoding of a linear value in 0..1 (IEC 61966-2-1).
 pub(crate) fn linear_to_srgb(linear: f32) -> f32 {
-    let c = linear.clamp(0.0, 1.0);
-    if c <= 0.003_130_8 {
+    let c = f64::from(linear.clamp(0.0, 1.0));
+    let encoded = if c <= 0.003_130_8 {
         c * 12.92
     } else {
         1.055 * c.powf(1.0 / 2.4) - 0.055
-    }
+    };
+    encoded.clamp(0.0, 1.0) as f32
 }
 
 #[cfg(test)]
@@ -484,7 +485,7 @@ mod tests {
     #[test]
     fn srgb_encoding_has_the_standard_values() {
         assert_eq!(linear_to_srgb(0.0), 0.0);
-        assert!((linear_to_srgb(1.0) - 1.0).abs() < 1e-6);
+        assert_eq!(linear_to_srgb(1.0), 1.0);
         // sRGB 128/255 is 0.21586 linear.
         assert!((linear_to_srgb(0.21586) * 255.0 - 128.0).abs() < 0.01);
     }

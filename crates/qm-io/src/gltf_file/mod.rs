@@ -64,8 +64,27 @@ pub(super) fn read(bytes: &[u8], source: &Source) -> Result<Asset, MeshError> {
     if bytes.starts_with(b"glTF") {
         check_glb_header(bytes).map_err(fail)?;
     }
-    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(bytes)
-        .map_err(|e| fail(Problem::Syntax(format!("invalid glTF: {e}"))))?;
+    let invalid = |e: gltf::Error| fail(Problem::Syntax(format!("invalid glTF: {e}")));
+    let gltf::Gltf { document, blob } =
+        gltf::Gltf::from_slice_without_validation(bytes).map_err(invalid)?;
+    // gltf-json's validation indexes the accessors with a primitive's
+    // POSITION before it checks that index (a panic): checked here first.
+    let root = document.into_json();
+    let accessors = root.accessors.len();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position = gltf::json::validation::Checked::Valid(Semantic::Positions);
+            if let Some(index) = primitive.attributes.get(&position) {
+                if index.value() >= accessors {
+                    return Err(fail(Problem::Syntax(format!(
+                        "mesh {m}, primitive {p}: POSITION is accessor {}, of {accessors}",
+                        index.value()
+                    ))));
+                }
+            }
+        }
+    }
+    let document = gltf::Document::from_json(root).map_err(invalid)?;
     if let Some(ext) = document
         .extensions_required()
         .find(|e| !SUPPORTED.contains(e))
@@ -159,13 +178,13 @@ fn data_uri(uri: &str) -> Option<Result<Vec<u8>, String>> {
 
 /// The path of a relative URI, resolved against the glTF's folder.
 fn file_uri(uri: &str, source: &Source) -> Result<PathBuf, String> {
-    let Some(folder) = source.folder else {
-        return Err("a file beside the glTF, which is read from memory".into());
-    };
     let scheme = uri.split_once(':').map(|(s, _)| s);
     if uri.starts_with('/') || scheme.is_some_and(|s| s.len() > 1 && !s.contains('/')) {
         return Err("only relative URIs and data: URIs are read".into());
     }
+    let Some(folder) = source.folder else {
+        return Err("a file beside the glTF, which is read from memory".into());
+    };
     Ok(asset::resolve(folder, &percent_decode(uri)))
 }
 
@@ -630,20 +649,32 @@ impl Reader<'_> {
         asset.materials = materials;
     }
 
-    /// Where an image's encoded bytes are.
+    /// Where an image's encoded bytes are. (Read from the JSON: the crate's
+    /// `Image::source` panics on an image with a buffer view and no MIME
+    /// type, or with neither a buffer view nor a URI.)
     fn image_source(&self, image: &gltf::Image, source: &Source) -> Result<ImageSource, String> {
-        match image.source() {
-            gltf::image::Source::View { view, mime_type } => Ok(ImageSource::Embedded {
-                mime_type: Some(mime_type.to_owned()),
-                bytes: self.view_bytes(&view).map_err(|p| p.to_string())?.to_vec(),
-            }),
-            gltf::image::Source::Uri { uri, mime_type } => match data_uri(uri) {
+        let json = &self.document.as_json().images[image.index()];
+        let mime_type = json.mime_type.as_ref().map(|m| m.0.clone());
+        match (&json.buffer_view, &json.uri) {
+            (Some(view), _) => {
+                let view = self
+                    .document
+                    .views()
+                    .nth(view.value())
+                    .ok_or("no such buffer view")?;
+                Ok(ImageSource::Embedded {
+                    mime_type,
+                    bytes: self.view_bytes(&view).map_err(|p| p.to_string())?.to_vec(),
+                })
+            }
+            (None, Some(uri)) => match data_uri(uri) {
                 Some(bytes) => Ok(ImageSource::Embedded {
-                    mime_type: mime_type.map(str::to_owned),
+                    mime_type,
                     bytes: bytes?,
                 }),
                 None => file_uri(uri, source).map(ImageSource::File),
             },
+            (None, None) => Err("neither a buffer view nor a URI".into()),
         }
     }
 
