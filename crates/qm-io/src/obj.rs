@@ -479,7 +479,7 @@ pub(super) fn write(w: &mut impl Write, mesh: &PolyMesh) -> io::Result<()> {
 mod tests {
     use super::*;
     use crate::tests::{assert_bit_exact, awkward_mesh};
-    use crate::{Format, read_mesh_bytes, write_mesh_to};
+    use crate::{AttributeKind as Kind, Format, read_mesh_bytes, write_mesh_to};
 
     fn read_str(text: &str) -> Result<PolyMesh, MeshError> {
         read_mesh_bytes(text.as_bytes(), Format::Obj, "t.obj")
@@ -665,4 +665,98 @@ mod tests {
             "t.obj: line 4: invalid face corner \"\u{fffd}\""
         );
     }
+
+    /// A textured OBJ, its library and image in `dir`: two quads sharing an
+    /// edge, a seam in texture space along it, two materials, `map_Kd` with
+    /// options and a relative path, a missing image for the second.
+    pub(crate) fn write_textured(dir: &std::path::Path) -> std::path::PathBuf {
+        std::fs::create_dir_all(dir.join("maps")).unwrap();
+        std::fs::write(dir.join("maps/wood.png"), crate::gltf_file::tests::png(2, 2)).unwrap();
+        std::fs::write(
+            dir.join("two.mtl"),
+            "newmtl wood\nKd 0.8 0.6 0.4\nmap_Kd -s 1 1 1 -bm 0.5 maps/wood.png\n\
+             newmtl stone\nKd 0.5 0.5 0.5\nd 0.25\nmap_Kd maps/stone.png\nmap_Bump maps/n.png\n",
+        )
+        .unwrap();
+        let obj = dir.join("two.obj");
+        std::fs::write(
+            &obj,
+            "mtllib two.mtl\n\
+             v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 2 0 0 0 0 1\nv 0 1 0 1 1 1\nv 1 1 0 0.5 0.5 0.5\nv 2 1 0 0 0 0\n\
+             vt 0 0\nvt 0.5 0\nvt 0.5 1\nvt 0 1\nvt 0.75 0.25\nvn 0 0 1\n\
+             usemtl wood\nf 1/1/1 2/2/1 5/3/1 4/4/1\n\
+             usemtl stone\nf 2/5/1 3/-4/1 6/-3/1 5/-2/1\nl 1 2\n",
+        )
+        .unwrap();
+        obj
+    }
+
+    #[test]
+    fn textured_obj_with_colours_materials_and_a_missing_image() {
+        let dir = tempfile::tempdir().unwrap();
+        let obj = write_textured(dir.path());
+        let options = crate::AssetOptions::DEFAULT.with_images(true);
+        let asset = crate::read_asset(&obj, &options).unwrap();
+        assert_eq!(asset.mesh, crate::read_mesh(&obj).unwrap());
+        let colors = asset.colors.as_ref().unwrap();
+        assert_eq!(colors.len(), 6);
+        assert_eq!(colors[4], [0.5, 0.5, 0.5, 1.0]);
+        let uv = asset.tex_coords.as_ref().unwrap();
+        assert_eq!(uv.values.len(), 5);
+        // vt 0.5 1 read with v down: (0.5, 0).
+        assert_eq!(uv.get(2), Some([0.5, 0.0]));
+        // Relative indices: -4 of 5 is vt 2.
+        assert_eq!(uv.corners[4..], [4, 1, 2, 3]);
+        assert_eq!(asset.materials.len(), 2);
+        assert_eq!(asset.face_materials, Some(vec![0, 1]));
+        let wood = &asset.materials[0];
+        assert_eq!(wood.base_color, [0.8, 0.6, 0.4, 1.0]);
+        let texture = wood.base_color_texture.as_ref().unwrap();
+        assert_eq!(texture.source, crate::ImageSource::File(dir.path().join("maps/wood.png")));
+        assert_eq!(texture.image.as_ref().unwrap().rgba.len(), 16);
+        let stone = &asset.materials[1];
+        assert_eq!(stone.base_color[3], 0.25);
+        assert_eq!(stone.base_color_texture, None);
+        let find = |kind| asset.dropped.iter().find(|d| d.kind == kind).unwrap();
+        assert!(find(Kind::Textures).detail.contains("stone.png"), "{:?}", asset.dropped);
+        assert!(find(Kind::Properties).detail.contains("map_Kd options -s not applied"));
+        assert_eq!(find(Kind::Normals).count, 1);
+        assert_eq!(find(Kind::Lines).count, 1);
+        assert_eq!(find(Kind::OtherMaps).count, 1);
+        let held: Vec<Kind> = asset.held().iter().map(|d| d.kind).collect();
+        assert_eq!(held, [Kind::VertexColors, Kind::TexCoords, Kind::Textures, Kind::Materials]);
+    }
+
+    #[test]
+    fn appearance_problems_never_fail_the_geometry() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bad.obj");
+        let options = crate::AssetOptions::DEFAULT;
+        let cases = [
+            ("mtllib nowhere.mtl\nusemtl x\nf 1 2 3\n", Kind::Materials, "nowhere.mtl"),
+            ("vt 0 0\nf 1/1 2/7 3/1\n", Kind::TexCoords, "texture index 7 out of range"),
+            ("vt 0 x\nf 1/1 2/1 3/1\n", Kind::TexCoords, "invalid texture coordinate"),
+            ("f 1/0 2/1 3/1\nvt 0 0\n", Kind::TexCoords, "texture index \"0\""),
+            ("v 9 9 9 2 0 0\nf 1 2 3\n", Kind::VertexColors, "not in 0..1"),
+            ("v 9 9 9 1 0 0\nf 1 2 3\n", Kind::VertexColors, "only 1 of 4 vertices"),
+        ];
+        for (extra, kind, fragment) in cases {
+            std::fs::write(&path, format!("v 0 0 0\nv 1 0 0\nv 0 1 0\n{extra}")).unwrap();
+            let asset = crate::read_asset(&path, &options).unwrap();
+            assert_eq!(asset.mesh.face_count(), 1, "{extra}");
+            let entry = asset.dropped.iter().find(|d| d.kind == kind);
+            assert!(
+                entry.is_some_and(|d| d.detail.contains(fragment)),
+                "{extra:?}: {:?}",
+                asset.dropped
+            );
+            assert!(asset.tex_coords.is_none() && asset.colors.is_none());
+        }
+        // From memory the library cannot be found; that is said too.
+        let bytes = b"mtllib a.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+        let asset = crate::read_asset_bytes(bytes, Format::Obj, "m.obj", &options).unwrap();
+        assert!(asset.dropped[0].detail.contains("read from memory"), "{:?}", asset.dropped);
+        assert_eq!(asset.materials[0].name, "m");
+    }
 }
+

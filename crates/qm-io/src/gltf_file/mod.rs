@@ -851,4 +851,4 @@ fn triangles(mode: Mode, indices: &[u32]) -> Vec<[u32; 3]> {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
