@@ -314,20 +314,17 @@ impl Asset {
     pub fn held(&self) -> Vec<Dropped> {
         let mut held = Vec::new();
         if let Some(colors) = &self.colors {
-            let detail = format!("{} vertices with RGBA colours", colors.len());
+            let detail = "RGBA per vertex".to_owned();
             add_dropped(&mut held, AttributeKind::VertexColors, colors.len() as u64, detail);
             let translucent = colors.iter().filter(|c| c[3] < 1.0).count();
             if translucent > 0 {
-                let detail = format!("{translucent} vertices with alpha below 1");
+                let detail = "vertices whose alpha is below 1".to_owned();
                 add_dropped(&mut held, AttributeKind::VertexAlpha, translucent as u64, detail);
             }
         }
         if let Some(uv) = &self.tex_coords {
             let corners = uv.corners.iter().filter(|&&c| c != TexCoords::NONE).count();
-            let detail = format!(
-                "{corners} face corners with texture coordinates ({} distinct)",
-                uv.values.len()
-            );
+            let detail = "per face corner".to_owned();
             add_dropped(&mut held, AttributeKind::TexCoords, corners as u64, detail);
         }
         let textures: Vec<&Texture> = self
@@ -337,11 +334,11 @@ impl Asset {
             .collect();
         if !textures.is_empty() {
             let names: Vec<String> = textures.iter().map(|t| t.source.to_string()).collect();
-            let detail = format!("base colour images {}", names.join(", "));
+            let detail = format!("base colour images: {}", names.join(", "));
             add_dropped(&mut held, AttributeKind::Textures, textures.len() as u64, detail);
         }
         if !self.materials.is_empty() {
-            let detail = format!("{} materials with base colours", self.materials.len());
+            let detail = "base colours".to_owned();
             let count = self.materials.len() as u64;
             add_dropped(&mut held, AttributeKind::Materials, count, detail);
         }

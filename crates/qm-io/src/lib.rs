@@ -245,7 +245,7 @@ fn read_source(bytes: &[u8], format: Format, source: &Source) -> Result<Asset, M
             let mut asset = Asset::of(stl::read(bytes, name)?);
             if source.appearance.is_some() {
                 let facets = asset.mesh.face_count() as u64;
-                let detail = format!("{facets} facet normals (qm computes normals from the surface)");
+                let detail = "facet normals (qm computes normals from the surface)".to_owned();
                 add_dropped(&mut asset.dropped, AttributeKind::Normals, facets, detail);
             }
             Ok(asset)

@@ -289,12 +289,12 @@ impl Look {
             }
         }
         for (count, kind, what) in [
-            (self.normals, Kind::Normals, "vertex normals (vn; qm computes normals from the surface)"),
-            (self.lines, Kind::Lines, "line elements (l)"),
-            (self.points, Kind::Points, "point elements (p)"),
+            (self.normals, Kind::Normals, "vn lines (qm computes normals from the surface)"),
+            (self.lines, Kind::Lines, "l elements"),
+            (self.points, Kind::Points, "p elements"),
         ] {
             if count > 0 {
-                add_dropped(dropped, kind, count, format!("{count} {what}"));
+                add_dropped(dropped, kind, count, what.to_owned());
             }
         }
         if self.material_names.is_empty() {

@@ -62,7 +62,7 @@ pub(super) fn report_variant(bytes: &[u8], vertices: usize, dropped: &mut Vec<cr
     ] {
         if let Some(after) = rest.strip_prefix(prefix) {
             rest = after;
-            let detail = format!("{count} vertex {what} of {keyword} (not read from OFF)");
+            let detail = format!("vertex {what} of {keyword} (not read from OFF)");
             crate::add_dropped(dropped, kind, count, detail);
         }
     }

@@ -323,9 +323,7 @@ impl Reader<'_> {
             // multiplies the material's (glTF 2.0 spec, 3.7.2.1).
             asset.colors = Some(colors.into_iter().map(|c| c.unwrap_or([1.0; 4])).collect());
             if color_conflicts > 0 {
-                let detail = format!(
-                    "{color_conflicts} welded vertices had another colour than the first"
-                );
+                let detail = "welded vertices with another colour than the first (kept)".to_owned();
                 add_dropped(&mut dropped, Kind::VertexColors, color_conflicts, detail);
             }
         }
@@ -454,7 +452,7 @@ impl Reader<'_> {
         };
         if let Some((kind, what)) = not_surface {
             let count = position.count() as u64;
-            let detail = format!("{count} vertices of {what} primitives ({mode:?})");
+            let detail = format!("vertices of {what} primitives ({mode:?})");
             add_dropped(dropped, kind, count, detail);
             return Ok(None);
         }
@@ -570,19 +568,22 @@ impl Reader<'_> {
                         Some(kept.iter().map(|&v| uv[v].map(|c| c as f32)).collect());
                     continue;
                 }
-                Semantic::Normals => (Kind::Normals, "vertex normals (NORMAL; qm computes normals from the surface)".to_owned()),
-                Semantic::Tangents => (Kind::Tangents, "vertex tangents (TANGENT)".to_owned()),
-                Semantic::Colors(n) => (Kind::VertexColors, format!("vertices' second colour set COLOR_{n}")),
-                Semantic::TexCoords(n) => (Kind::ExtraTexCoords, format!("vertices' TEXCOORD_{n}")),
-                Semantic::Joints(n) => (Kind::Skinning, format!("vertices' JOINTS_{n}")),
-                Semantic::Weights(n) => (Kind::Skinning, format!("vertices' WEIGHTS_{n}")),
-                other => (Kind::Properties, format!("vertices' {}", other.to_string())),
+                Semantic::Normals => (
+                    Kind::Normals,
+                    "NORMAL per vertex (qm computes normals from the surface)".to_owned(),
+                ),
+                Semantic::Tangents => (Kind::Tangents, "TANGENT per vertex".to_owned()),
+                Semantic::Colors(n) => (Kind::VertexColors, format!("COLOR_{n} per vertex")),
+                Semantic::TexCoords(n) => (Kind::ExtraTexCoords, format!("TEXCOORD_{n} per vertex")),
+                Semantic::Joints(n) => (Kind::Skinning, format!("JOINTS_{n} per vertex")),
+                Semantic::Weights(n) => (Kind::Skinning, format!("WEIGHTS_{n} per vertex")),
+                other => (Kind::Properties, format!("{} per vertex", other.to_string())),
             };
-            add_dropped(dropped, kind, count, format!("{count} {what}"));
+            add_dropped(dropped, kind, count, what);
         }
         let targets = primitive.morph_targets().count() as u64;
         if targets > 0 {
-            add_dropped(dropped, Kind::MorphTargets, targets, format!("{targets} morph targets"));
+            add_dropped(dropped, Kind::MorphTargets, targets, "morph targets".into());
         }
         Ok(())
     }
@@ -682,12 +683,12 @@ impl Reader<'_> {
     fn report_document(&self, dropped: &mut Vec<Dropped>) {
         let animations = self.document.animations().count() as u64;
         if animations > 0 {
-            let detail = format!("{animations} animations (the rest pose is read)");
+            let detail = "animations (the rest pose is read)".to_owned();
             add_dropped(dropped, Kind::Animations, animations, detail);
         }
         let skins = self.document.skins().count() as u64;
         if skins > 0 {
-            add_dropped(dropped, Kind::Skinning, skins, format!("{skins} skins"));
+            add_dropped(dropped, Kind::Skinning, skins, "skins".into());
         }
         let unread: Vec<&str> = self
             .document

@@ -211,7 +211,7 @@ fn describe(header: &Header, dropped: &mut Vec<Dropped>) -> Option<bool> {
                         .map(|(_, n)| *n)
                         .collect();
                     if !names.is_empty() {
-                        let detail = format!("{count} vertices' {}", names.join(" "));
+                        let detail = format!("vertex {}", names.join(" "));
                         add_dropped(dropped, kind, count, detail);
                     }
                 }
@@ -252,11 +252,11 @@ fn describe(header: &Header, dropped: &mut Vec<Dropped>) -> Option<bool> {
                             continue;
                         }
                     };
-                    let detail = format!("{count} {} elements' {what} ({name})", def.name);
+                    let detail = format!("{} {what} ({name})", def.name);
                     add_dropped(dropped, kind, count, detail);
                 }
                 if !names.is_empty() {
-                    let detail = format!("{count} {} elements' {}", def.name, names.join(" "));
+                    let detail = format!("{} {}", def.name, names.join(" "));
                     add_dropped(dropped, Kind::Properties, count, detail);
                 }
             }
@@ -266,7 +266,7 @@ fn describe(header: &Header, dropped: &mut Vec<Dropped>) -> Option<bool> {
                 } else {
                     Kind::Properties
                 };
-                let detail = format!("{count} {} elements", def.name);
+                let detail = format!("{} elements", def.name);
                 add_dropped(dropped, kind, count, detail);
             }
         }
