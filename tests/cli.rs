@@ -721,7 +721,16 @@ fn compress_names_every_attribute_it_cannot_carry() {
     assert!(lines[2].contains("stone.png: not found"), "{}", lines[2]);
 
     let out = qm(
-        &["compress", "two.obj", "-o", "j.qm", "--base-domain", "input", "--json", "--quiet"],
+        &[
+            "compress",
+            "two.obj",
+            "-o",
+            "j.qm",
+            "--base-domain",
+            "input",
+            "--json",
+            "--quiet",
+        ],
         d,
     );
     assert!(stderr(&out).is_empty(), "--quiet: {}", stderr(&out));
@@ -739,23 +748,42 @@ fn compress_names_every_attribute_it_cannot_carry() {
         ]
     );
     assert_eq!(v["dropped"][1]["count"], 8);
-    assert_eq!(v["bytes"].as_u64().unwrap(), std::fs::metadata(d.join("j.qm")).unwrap().len());
+    assert_eq!(
+        v["bytes"].as_u64().unwrap(),
+        std::fs::metadata(d.join("j.qm")).unwrap().len()
+    );
 
     // The bundled assets: a textured GLB and a vertex-coloured PLY.
     for (name, expected) in [
-        ("appearance/pico-neo3-left.glb", &["tex_coords", "textures", "materials", "normals"][..]),
+        (
+            "appearance/pico-neo3-left.glb",
+            &["tex_coords", "textures", "materials", "normals"][..],
+        ),
         ("appearance/greg-turk-cube.ply", &["vertex_colors", "lines"]),
         ("quad/cc_cube.obj", &[]),
     ] {
         let file = Path::new(name).file_name().unwrap().to_str().unwrap();
         std::fs::copy(asset(name), d.join(file)).unwrap();
         let out = qm(
-            &["compress", file, "-o", "a.qm", "--base-domain", "input", "--json"],
+            &[
+                "compress",
+                file,
+                "-o",
+                "a.qm",
+                "--base-domain",
+                "input",
+                "--json",
+            ],
             d,
         );
         let (kinds, v) = dropped_kinds(&out);
         assert_eq!(kinds, expected, "{name}");
-        assert_eq!(warnings(&out).len(), expected.len(), "{name}: {}", stderr(&out));
+        assert_eq!(
+            warnings(&out).len(),
+            expected.len(),
+            "{name}: {}",
+            stderr(&out)
+        );
         if name.ends_with(".glb") {
             let detail = v["dropped"][1]["detail"].as_str().unwrap();
             assert!(detail.contains("image/jpeg"), "{detail}");

@@ -476,8 +476,8 @@ fn compress(
     let progress = Progress::new(quiet);
     progress.step("reading mesh");
     // Images are located, not decoded: nothing uses their pixels yet.
-    let asset = qm::read_asset(input, &qm::AssetOptions::DEFAULT)
-        .map_err(|e| Failure::about(input, e))?;
+    let asset =
+        qm::read_asset(input, &qm::AssetOptions::DEFAULT).map_err(|e| Failure::about(input, e))?;
     let dropped = qm::not_carried(&asset);
     let mesh = asset.mesh;
     progress.suspend(|| {

@@ -315,11 +315,21 @@ impl Asset {
         let mut held = Vec::new();
         if let Some(colors) = &self.colors {
             let detail = "RGBA per vertex".to_owned();
-            add_dropped(&mut held, AttributeKind::VertexColors, colors.len() as u64, detail);
+            add_dropped(
+                &mut held,
+                AttributeKind::VertexColors,
+                colors.len() as u64,
+                detail,
+            );
             let translucent = colors.iter().filter(|c| c[3] < 1.0).count();
             if translucent > 0 {
                 let detail = "vertices whose alpha is below 1".to_owned();
-                add_dropped(&mut held, AttributeKind::VertexAlpha, translucent as u64, detail);
+                add_dropped(
+                    &mut held,
+                    AttributeKind::VertexAlpha,
+                    translucent as u64,
+                    detail,
+                );
             }
         }
         if let Some(uv) = &self.tex_coords {
@@ -335,7 +345,12 @@ impl Asset {
         if !textures.is_empty() {
             let names: Vec<String> = textures.iter().map(|t| t.source.to_string()).collect();
             let detail = format!("base colour images: {}", names.join(", "));
-            add_dropped(&mut held, AttributeKind::Textures, textures.len() as u64, detail);
+            add_dropped(
+                &mut held,
+                AttributeKind::Textures,
+                textures.len() as u64,
+                detail,
+            );
         }
         if !self.materials.is_empty() {
             let detail = "base colours".to_owned();
@@ -464,10 +479,25 @@ mod tests {
     #[test]
     fn merged_entries_add_counts_and_keep_details_short() {
         let mut list = Vec::new();
-        add_dropped(&mut list, AttributeKind::Textures, 1, "a.png: not found".into());
+        add_dropped(
+            &mut list,
+            AttributeKind::Textures,
+            1,
+            "a.png: not found".into(),
+        );
         add_dropped(&mut list, AttributeKind::Normals, 5, "5 vn".into());
-        add_dropped(&mut list, AttributeKind::Textures, 1, "b.png: not found".into());
-        add_dropped(&mut list, AttributeKind::Textures, 1, "b.png: not found".into());
+        add_dropped(
+            &mut list,
+            AttributeKind::Textures,
+            1,
+            "b.png: not found".into(),
+        );
+        add_dropped(
+            &mut list,
+            AttributeKind::Textures,
+            1,
+            "b.png: not found".into(),
+        );
         assert_eq!(list.len(), 2);
         assert_eq!(list[0].count, 3);
         assert_eq!(list[0].detail, "a.png: not found; b.png: not found");

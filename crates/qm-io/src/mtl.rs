@@ -62,7 +62,9 @@ pub(crate) fn parse(bytes: &[u8], label: &str, dropped: &mut Vec<Dropped>) -> Ve
         match keyword {
             "Kd" => match numbers(rest) {
                 // `Kd spectral` and `Kd xyz` forms are not RGB.
-                Some(v) if v.len() == 3 && in_unit(&v) => material.diffuse = Some([v[0], v[1], v[2]]),
+                Some(v) if v.len() == 3 && in_unit(&v) => {
+                    material.diffuse = Some([v[0], v[1], v[2]])
+                }
                 Some(v) if v.len() == 1 && in_unit(&v) => material.diffuse = Some([v[0]; 3]),
                 _ => bad(dropped),
             },
@@ -75,11 +77,14 @@ pub(crate) fn parse(bytes: &[u8], label: &str, dropped: &mut Vec<Dropped>) -> Ve
             "map_Kd" => match map_file(rest) {
                 Some((file, ignored)) => {
                     if !ignored.is_empty() {
-                        let detail = format!(
-                            "{label}: map_Kd options {} not applied",
-                            ignored.join(" ")
+                        let detail =
+                            format!("{label}: map_Kd options {} not applied", ignored.join(" "));
+                        add_dropped(
+                            dropped,
+                            AttributeKind::Properties,
+                            ignored.len() as u64,
+                            detail,
                         );
-                        add_dropped(dropped, AttributeKind::Properties, ignored.len() as u64, detail);
                     }
                     material.map = Some(file);
                 }

@@ -20,8 +20,7 @@ use std::collections::HashMap;
 use std::io::{self, Write};
 
 use super::{
-    MAX_VERTICES, MeshBuilder, MeshError, Problem, Source, numbered_lines, parse_f64,
-    strip_comment,
+    MAX_VERTICES, MeshBuilder, MeshError, Problem, Source, numbered_lines, parse_f64, strip_comment,
 };
 use crate::asset::{self, add_dropped};
 use crate::{Asset, AttributeKind as Kind, Material, PolyMesh, TexCoords};
@@ -143,7 +142,9 @@ impl Look {
         self.colored += 1;
         let mut rgba = [1.0f32; 4];
         for (k, token) in extras.iter().enumerate() {
-            let value = std::str::from_utf8(token).ok().and_then(|t| t.parse::<f32>().ok());
+            let value = std::str::from_utf8(token)
+                .ok()
+                .and_then(|t| t.parse::<f32>().ok());
             match value {
                 Some(v) if (0.0..=1.0).contains(&v) => rgba[k] = v,
                 _ => {
@@ -173,7 +174,9 @@ impl Look {
             }
         };
         self.textured = true;
-        let written = std::str::from_utf8(index).ok().and_then(|t| t.parse::<i64>().ok());
+        let written = std::str::from_utf8(index)
+            .ok()
+            .and_then(|t| t.parse::<i64>().ok());
         let count = self.tex_values.len();
         match written.map(|i| (i, resolve(i, count))) {
             Some((i, Ok(resolved))) => {
@@ -289,7 +292,11 @@ impl Look {
             }
         }
         for (count, kind, what) in [
-            (self.normals, Kind::Normals, "vn lines (qm computes normals from the surface)"),
+            (
+                self.normals,
+                Kind::Normals,
+                "vn lines (qm computes normals from the surface)",
+            ),
             (self.lines, Kind::Lines, "l elements"),
             (self.points, Kind::Points, "p elements"),
         ] {
@@ -304,14 +311,16 @@ impl Look {
         let mut materials: Vec<Material> = self
             .material_names
             .iter()
-            .map(|name| match defined.iter().rev().find(|(m, _)| &m.name == name) {
-                Some((m, folder)) => to_material(m, folder.as_deref(), options, dropped),
-                None => {
-                    let detail = format!("material {name:?} is defined in no material library");
-                    add_dropped(dropped, Kind::Materials, 1, detail);
-                    Material::named(name)
-                }
-            })
+            .map(
+                |name| match defined.iter().rev().find(|(m, _)| &m.name == name) {
+                    Some((m, folder)) => to_material(m, folder.as_deref(), options, dropped),
+                    None => {
+                        let detail = format!("material {name:?} is defined in no material library");
+                        add_dropped(dropped, Kind::Materials, 1, detail);
+                        Material::named(name)
+                    }
+                },
+            )
             .collect();
         let unassigned = self.face_materials.iter().any(Option::is_none);
         if unassigned {
@@ -340,7 +349,8 @@ fn load_libraries(
     let mut found = Vec::new();
     for (number, names) in libraries {
         let Some(folder) = source.folder else {
-            let detail = format!("line {number}: {names}: not read (the mesh was read from memory)");
+            let detail =
+                format!("line {number}: {names}: not read (the mesh was read from memory)");
             add_dropped(dropped, Kind::Materials, 0, detail);
             continue;
         };
@@ -671,7 +681,11 @@ mod tests {
     /// options and a relative path, a missing image for the second.
     pub(crate) fn write_textured(dir: &std::path::Path) -> std::path::PathBuf {
         std::fs::create_dir_all(dir.join("maps")).unwrap();
-        std::fs::write(dir.join("maps/wood.png"), crate::gltf_file::tests::png(2, 2)).unwrap();
+        std::fs::write(
+            dir.join("maps/wood.png"),
+            crate::gltf_file::tests::png(2, 2),
+        )
+        .unwrap();
         std::fs::write(
             dir.join("two.mtl"),
             "newmtl wood\nKd 0.8 0.6 0.4\nmap_Kd -s 1 1 1 -bm 0.5 maps/wood.png\n\
@@ -712,19 +726,38 @@ mod tests {
         let wood = &asset.materials[0];
         assert_eq!(wood.base_color, [0.8, 0.6, 0.4, 1.0]);
         let texture = wood.base_color_texture.as_ref().unwrap();
-        assert_eq!(texture.source, crate::ImageSource::File(dir.path().join("maps/wood.png")));
+        assert_eq!(
+            texture.source,
+            crate::ImageSource::File(dir.path().join("maps/wood.png"))
+        );
         assert_eq!(texture.image.as_ref().unwrap().rgba.len(), 16);
         let stone = &asset.materials[1];
         assert_eq!(stone.base_color[3], 0.25);
         assert_eq!(stone.base_color_texture, None);
         let find = |kind| asset.dropped.iter().find(|d| d.kind == kind).unwrap();
-        assert!(find(Kind::Textures).detail.contains("stone.png"), "{:?}", asset.dropped);
-        assert!(find(Kind::Properties).detail.contains("map_Kd options -s not applied"));
+        assert!(
+            find(Kind::Textures).detail.contains("stone.png"),
+            "{:?}",
+            asset.dropped
+        );
+        assert!(
+            find(Kind::Properties)
+                .detail
+                .contains("map_Kd options -s not applied")
+        );
         assert_eq!(find(Kind::Normals).count, 1);
         assert_eq!(find(Kind::Lines).count, 1);
         assert_eq!(find(Kind::OtherMaps).count, 1);
         let held: Vec<Kind> = asset.held().iter().map(|d| d.kind).collect();
-        assert_eq!(held, [Kind::VertexColors, Kind::TexCoords, Kind::Textures, Kind::Materials]);
+        assert_eq!(
+            held,
+            [
+                Kind::VertexColors,
+                Kind::TexCoords,
+                Kind::Textures,
+                Kind::Materials
+            ]
+        );
     }
 
     #[test]
@@ -733,12 +766,36 @@ mod tests {
         let path = dir.path().join("bad.obj");
         let options = crate::AssetOptions::DEFAULT;
         let cases = [
-            ("mtllib nowhere.mtl\nusemtl x\nf 1 2 3\n", Kind::Materials, "nowhere.mtl"),
-            ("vt 0 0\nf 1/1 2/7 3/1\n", Kind::TexCoords, "texture index 7 out of range"),
-            ("vt 0 x\nf 1/1 2/1 3/1\n", Kind::TexCoords, "invalid texture coordinate"),
-            ("f 1/0 2/1 3/1\nvt 0 0\n", Kind::TexCoords, "texture index \"0\""),
-            ("v 9 9 9 2 0 0\nf 1 2 3\n", Kind::VertexColors, "not in 0..1"),
-            ("v 9 9 9 1 0 0\nf 1 2 3\n", Kind::VertexColors, "only 1 of 4 vertices"),
+            (
+                "mtllib nowhere.mtl\nusemtl x\nf 1 2 3\n",
+                Kind::Materials,
+                "nowhere.mtl",
+            ),
+            (
+                "vt 0 0\nf 1/1 2/7 3/1\n",
+                Kind::TexCoords,
+                "texture index 7 out of range",
+            ),
+            (
+                "vt 0 x\nf 1/1 2/1 3/1\n",
+                Kind::TexCoords,
+                "invalid texture coordinate",
+            ),
+            (
+                "f 1/0 2/1 3/1\nvt 0 0\n",
+                Kind::TexCoords,
+                "texture index \"0\"",
+            ),
+            (
+                "v 9 9 9 2 0 0\nf 1 2 3\n",
+                Kind::VertexColors,
+                "not in 0..1",
+            ),
+            (
+                "v 9 9 9 1 0 0\nf 1 2 3\n",
+                Kind::VertexColors,
+                "only 1 of 4 vertices",
+            ),
         ];
         for (extra, kind, fragment) in cases {
             std::fs::write(&path, format!("v 0 0 0\nv 1 0 0\nv 0 1 0\n{extra}")).unwrap();
@@ -755,8 +812,11 @@ mod tests {
         // From memory the library cannot be found; that is said too.
         let bytes = b"mtllib a.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
         let asset = crate::read_asset_bytes(bytes, Format::Obj, "m.obj", &options).unwrap();
-        assert!(asset.dropped[0].detail.contains("read from memory"), "{:?}", asset.dropped);
+        assert!(
+            asset.dropped[0].detail.contains("read from memory"),
+            "{:?}",
+            asset.dropped
+        );
         assert_eq!(asset.materials[0].name, "m");
     }
 }
-

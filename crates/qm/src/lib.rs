@@ -333,7 +333,10 @@ mod tests {
         std::fs::remove_dir_all(&dir).unwrap();
         let kinds: Vec<io::AttributeKind> = not_carried(&asset).iter().map(|d| d.kind).collect();
         use io::AttributeKind as K;
-        assert_eq!(kinds, [K::VertexColors, K::TexCoords, K::Materials, K::Normals]);
+        assert_eq!(
+            kinds,
+            [K::VertexColors, K::TexCoords, K::Materials, K::Normals]
+        );
         let materials = &not_carried(&asset)[2];
         assert!(materials.detail.contains("gone.mtl"), "{materials:?}");
         assert!(not_carried(&Asset::default()).is_empty());

@@ -53,6 +53,15 @@ pub(crate) const MAX_INSTANCED: u64 = 1 << 26;
 /// Required extensions this reader handles.
 const SUPPORTED: [&str; 1] = ["KHR_mesh_quantization"];
 
+/// Prefixes of extensions that change only how a surface looks: required
+/// or not, the geometry reads without them (they are reported).
+const APPEARANCE_ONLY: [&str; 4] = [
+    "KHR_materials_",
+    "KHR_texture_",
+    "EXT_texture_",
+    "KHR_lights_",
+];
+
 /// Whether text starts like a glTF JSON document.
 pub(super) fn looks_like_gltf_json(bytes: &[u8]) -> bool {
     let head = &bytes[..bytes.len().min(4096)];
@@ -64,12 +73,30 @@ pub(super) fn read(bytes: &[u8], source: &Source) -> Result<Asset, MeshError> {
     if bytes.starts_with(b"glTF") {
         check_glb_header(bytes).map_err(fail)?;
     }
-    let invalid = |e: gltf::Error| fail(Problem::Syntax(format!("invalid glTF: {e}")));
+    let invalid = |e: gltf::Error| {
+        let message = e.to_string();
+        let message = match message.strip_prefix("invalid glTF: ") {
+            Some(rest) => format!("invalid glTF: {rest}"),
+            None => format!("invalid glTF: {message}"),
+        };
+        fail(Problem::Syntax(message))
+    };
     let gltf::Gltf { document, blob } =
         gltf::Gltf::from_slice_without_validation(bytes).map_err(invalid)?;
     // gltf-json's validation indexes the accessors with a primitive's
     // POSITION before it checks that index (a panic): checked here first.
-    let root = document.into_json();
+    let mut root = document.into_json();
+    // Required extensions that change only appearance are reported later
+    // (they are in `extensionsUsed` too); one that changes the geometry
+    // cannot be read around. The crate refuses all it does not know, so
+    // the list is emptied before its validation.
+    if let Some(ext) = root.extensions_required.iter().find(|e| {
+        !SUPPORTED.contains(&e.as_str()) && !APPEARANCE_ONLY.iter().any(|p| e.starts_with(p))
+    }) {
+        let what = format!("glTF extension {ext} (required by the file)");
+        return Err(fail(Problem::Unsupported(what)));
+    }
+    root.extensions_required.clear();
     let accessors = root.accessors.len();
     for (m, mesh) in root.meshes.iter().enumerate() {
         for (p, primitive) in mesh.primitives.iter().enumerate() {
@@ -85,13 +112,6 @@ pub(super) fn read(bytes: &[u8], source: &Source) -> Result<Asset, MeshError> {
         }
     }
     let document = gltf::Document::from_json(root).map_err(invalid)?;
-    if let Some(ext) = document
-        .extensions_required()
-        .find(|e| !SUPPORTED.contains(e))
-    {
-        let what = format!("glTF extension {ext} (required by the file)");
-        return Err(fail(Problem::Unsupported(what)));
-    }
     let owned = load_buffers(&document, source)?;
     let buffers: Vec<&[u8]> = owned
         .iter()
@@ -125,7 +145,8 @@ fn check_glb_header(bytes: &[u8]) -> Result<(), Problem> {
             what: "the GLB header".into(),
         });
     };
-    let word = |k: usize| u32::from_le_bytes([header[k], header[k + 1], header[k + 2], header[k + 3]]);
+    let word =
+        |k: usize| u32::from_le_bytes([header[k], header[k + 1], header[k + 2], header[k + 3]]);
     if word(4) != 2 {
         return Err(Problem::Unsupported(format!("GLB version {}", word(4))));
     }
@@ -169,9 +190,11 @@ fn load_buffers(document: &Document, source: &Source) -> Result<Vec<Option<Vec<u
 fn data_uri(uri: &str) -> Option<Result<Vec<u8>, String>> {
     let rest = uri.strip_prefix("data:")?;
     Some(match rest.split_once(',') {
-        Some((header, data)) if header.ends_with(";base64") => base64::engine::general_purpose::STANDARD
-            .decode(data)
-            .map_err(|e| format!("invalid base64 in a data: URI ({e})")),
+        Some((header, data)) if header.ends_with(";base64") => {
+            base64::engine::general_purpose::STANDARD
+                .decode(data)
+                .map_err(|e| format!("invalid base64 in a data: URI ({e})"))
+        }
         _ => Err("a data: URI that is not base64".into()),
     })
 }
@@ -414,7 +437,14 @@ impl Reader<'_> {
                 corners = corners.saturating_add(n.saturating_mul(3));
             }
         }
-        let max = stored.max(MAX_INSTANCED).min(MAX_VERTICES);
+        if placed > MAX_VERTICES {
+            return Err(Problem::TooMany {
+                what: "vertices",
+                count: placed,
+                max: MAX_VERTICES,
+            });
+        }
+        let max = stored.max(MAX_INSTANCED);
         if placed > max {
             return Err(Problem::TooMany {
                 what: "vertices once nodes repeat their meshes",
@@ -462,8 +492,10 @@ impl Reader<'_> {
         let count = xyz.len();
         let indices: Vec<u32> = match primitive.indices() {
             Some(accessor) => {
-                if !matches!(accessor.data_type(), DataType::U8 | DataType::U16 | DataType::U32)
-                    || accessor.dimensions() != Dimensions::Scalar
+                if !matches!(
+                    accessor.data_type(),
+                    DataType::U8 | DataType::U16 | DataType::U32
+                ) || accessor.dimensions() != Dimensions::Scalar
                 {
                     return Err(Problem::Syntax(format!(
                         "indices of type {:?} {:?}",
@@ -513,7 +545,11 @@ impl Reader<'_> {
         }
         let positions = kept
             .iter()
-            .map(|&v| instance.transform.transform_point3(DVec3::from_array(xyz[v])))
+            .map(|&v| {
+                instance
+                    .transform
+                    .transform_point3(DVec3::from_array(xyz[v]))
+            })
             .collect();
         let mut part = Part {
             positions,
@@ -555,7 +591,12 @@ impl Reader<'_> {
                         kept.iter()
                             .map(|&v| {
                                 let [r, g, b, a] = rgba[v].map(|c| c as f32);
-                                [linear_to_srgb(r), linear_to_srgb(g), linear_to_srgb(b), a.clamp(0.0, 1.0)]
+                                [
+                                    linear_to_srgb(r),
+                                    linear_to_srgb(g),
+                                    linear_to_srgb(b),
+                                    a.clamp(0.0, 1.0),
+                                ]
                             })
                             .collect(),
                     );
@@ -564,8 +605,7 @@ impl Reader<'_> {
                 Semantic::TexCoords(0) => {
                     let uv = self.vectors::<2>(&accessor, &[Dimensions::Vec2])?;
                     check_length(&uv, kept)?;
-                    part.tex_coords =
-                        Some(kept.iter().map(|&v| uv[v].map(|c| c as f32)).collect());
+                    part.tex_coords = Some(kept.iter().map(|&v| uv[v].map(|c| c as f32)).collect());
                     continue;
                 }
                 Semantic::Normals => (
@@ -574,10 +614,15 @@ impl Reader<'_> {
                 ),
                 Semantic::Tangents => (Kind::Tangents, "TANGENT per vertex".to_owned()),
                 Semantic::Colors(n) => (Kind::VertexColors, format!("COLOR_{n} per vertex")),
-                Semantic::TexCoords(n) => (Kind::ExtraTexCoords, format!("TEXCOORD_{n} per vertex")),
+                Semantic::TexCoords(n) => {
+                    (Kind::ExtraTexCoords, format!("TEXCOORD_{n} per vertex"))
+                }
                 Semantic::Joints(n) => (Kind::Skinning, format!("JOINTS_{n} per vertex")),
                 Semantic::Weights(n) => (Kind::Skinning, format!("WEIGHTS_{n} per vertex")),
-                other => (Kind::Properties, format!("{} per vertex", other.to_string())),
+                other => (
+                    Kind::Properties,
+                    format!("{} per vertex", other.to_string()),
+                ),
             };
             add_dropped(dropped, kind, count, what);
         }
@@ -599,12 +644,18 @@ impl Reader<'_> {
     ) {
         let mut materials: Vec<Material> = Vec::new();
         for m in self.document.materials() {
-            let label = m.name().map_or_else(|| format!("material {}", m.index().unwrap_or(0)), |n| format!("material {n:?}"));
+            let label = m.name().map_or_else(
+                || format!("material {}", m.index().unwrap_or(0)),
+                |n| format!("material {n:?}"),
+            );
             let pbr = m.pbr_metallic_roughness();
             let [r, g, b, a] = pbr.base_color_factor();
             let texture = pbr.base_color_texture().and_then(|info| {
                 if info.tex_coord() != 0 {
-                    let detail = format!("{label}: base colour texture on TEXCOORD_{}", info.tex_coord());
+                    let detail = format!(
+                        "{label}: base colour texture on TEXCOORD_{}",
+                        info.tex_coord()
+                    );
                     add_dropped(dropped, Kind::ExtraTexCoords, 0, detail);
                 }
                 let image = info.texture().source();
@@ -615,7 +666,10 @@ impl Reader<'_> {
                 asset::load_texture(source.ok()?, options, dropped)
             });
             let others = [
-                (pbr.metallic_roughness_texture().is_some(), "metallicRoughnessTexture"),
+                (
+                    pbr.metallic_roughness_texture().is_some(),
+                    "metallicRoughnessTexture",
+                ),
                 (m.normal_texture().is_some(), "normalTexture"),
                 (m.occlusion_texture().is_some(), "occlusionTexture"),
                 (m.emissive_texture().is_some(), "emissiveTexture"),
@@ -703,7 +757,11 @@ impl Reader<'_> {
 
     /// The bytes of a buffer view, checked against its buffer.
     fn view_bytes(&self, view: &gltf::buffer::View) -> Result<&[u8], Problem> {
-        let data = self.buffers.get(view.buffer().index()).copied().unwrap_or_default();
+        let data = self
+            .buffers
+            .get(view.buffer().index())
+            .copied()
+            .unwrap_or_default();
         view.offset()
             .checked_add(view.length())
             .and_then(|end| data.get(view.offset()..end))
@@ -760,7 +818,9 @@ impl Reader<'_> {
             return Err(bad("count 0".into()));
         }
         if stride < element {
-            return Err(bad(format!("byte stride {stride} below the element size {element}")));
+            return Err(bad(format!(
+                "byte stride {stride} below the element size {element}"
+            )));
         }
         let data = self.view_bytes(&view)?;
         let end = (count as u64 - 1)
@@ -815,7 +875,11 @@ fn component(bytes: &[u8], data_type: DataType, normalized: bool) -> f64 {
         }
         DataType::I16 => {
             let v = f64::from(i16::from_le_bytes([b(0), b(1)]));
-            if normalized { (v / 32767.0).max(-1.0) } else { v }
+            if normalized {
+                (v / 32767.0).max(-1.0)
+            } else {
+                v
+            }
         }
         DataType::U16 => {
             let v = f64::from(u16::from_le_bytes([b(0), b(1)]));
@@ -823,7 +887,11 @@ fn component(bytes: &[u8], data_type: DataType, normalized: bool) -> f64 {
         }
         DataType::U32 => {
             let v = f64::from(u32::from_le_bytes([b(0), b(1), b(2), b(3)]));
-            if normalized { v / f64::from(u32::MAX) } else { v }
+            if normalized {
+                v / f64::from(u32::MAX)
+            } else {
+                v
+            }
         }
         DataType::F32 => f64::from(f32::from_le_bytes([b(0), b(1), b(2), b(3)])),
     }
@@ -837,7 +905,13 @@ fn triangles(mode: Mode, indices: &[u32]) -> Vec<[u32; 3]> {
         Mode::TriangleStrip => indices
             .windows(3)
             .enumerate()
-            .map(|(k, w)| if k % 2 == 0 { [w[0], w[1], w[2]] } else { [w[1], w[0], w[2]] })
+            .map(|(k, w)| {
+                if k % 2 == 0 {
+                    [w[0], w[1], w[2]]
+                } else {
+                    [w[1], w[0], w[2]]
+                }
+            })
             .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
             .collect(),
         Mode::TriangleFan => match indices.split_first() {

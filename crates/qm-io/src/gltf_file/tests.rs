@@ -33,7 +33,9 @@ pub(crate) fn glb(document: &Value, bin: &[u8]) -> Vec<u8> {
 
 /// A PNG of `width` x `height` whose pixel (x, y) is (x, y, 7, 255).
 pub(crate) fn png(width: u32, height: u32) -> Vec<u8> {
-    let image = image::RgbaImage::from_fn(width, height, |x, y| image::Rgba([x as u8, y as u8, 7, 255]));
+    let image = image::RgbaImage::from_fn(width, height, |x, y| {
+        image::Rgba([x as u8, y as u8, 7, 255])
+    });
     let mut bytes = std::io::Cursor::new(Vec::new());
     image.write_to(&mut bytes, image::ImageFormat::Png).unwrap();
     bytes.into_inner()
@@ -50,7 +52,9 @@ fn floats(values: &[f32]) -> Vec<u8> {
 fn textured_square() -> (Value, Vec<u8>) {
     let mut bin = floats(&[0., 0., 0., 1., 0., 0., 1., 1., 0., 0., 1., 0.]); // 0..48
     bin.extend(floats(&[0., 1., 1., 1., 1., 0., 0., 0.])); // 48..80 uv
-    bin.extend([255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 128, 255, 255, 255, 255]); // 80..96
+    bin.extend([
+        255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 128, 255, 255, 255, 255,
+    ]); // 80..96
     bin.extend([0u16, 1, 2, 0, 2, 3].iter().flat_map(|i| i.to_le_bytes())); // 96..108
     bin.extend([0, 0, 0, 0]); // 108..112
     let image = png(4, 2);
@@ -122,16 +126,24 @@ fn round_trip_of_positions_uvs_colours_and_material() {
     assert_eq!(mesh.face(1), [0, 2, 3]);
     let uv = asset.tex_coords.as_ref().unwrap();
     let corners: Vec<[f32; 2]> = (0..6).map(|c| uv.get(c).unwrap()).collect();
-    assert_eq!(corners, [[0., 1.], [1., 1.], [1., 0.], [0., 1.], [1., 0.], [0., 0.]]);
+    assert_eq!(
+        corners,
+        [[0., 1.], [1., 1.], [1., 0.], [0., 1.], [1., 0.], [0., 0.]]
+    );
     let colors = asset.colors.as_ref().unwrap();
     assert_eq!(colors[0], [1.0, 0.0, 0.0, 1.0]);
-    assert!((colors[2][3] - 128.0 / 255.0).abs() < 1e-6, "alpha stays linear");
+    assert!(
+        (colors[2][3] - 128.0 / 255.0).abs() < 1e-6,
+        "alpha stays linear"
+    );
     let material = &asset.materials[0];
     assert_eq!(material.name, "paint");
     let [r, g, b, a] = material.base_color;
     assert!((r - 1.0).abs() < 1e-6 && (g - 128.0 / 255.0).abs() < 1e-3 && b == 0.0 && a == 0.5);
     let texture = material.base_color_texture.as_ref().unwrap();
-    assert!(matches!(&texture.source, ImageSource::Embedded { mime_type: Some(m), .. } if m == "image/png"));
+    assert!(
+        matches!(&texture.source, ImageSource::Embedded { mime_type: Some(m), .. } if m == "image/png")
+    );
     let image = texture.image.as_ref().unwrap();
     assert_eq!((image.width, image.height), (4, 2));
     assert_eq!(&image.rgba[4 * 5..4 * 6], [1, 1, 7, 255], "pixel (1, 1)");
@@ -141,7 +153,10 @@ fn round_trip_of_positions_uvs_colours_and_material() {
     assert_eq!(asset.dropped[0].count, 4);
 
     // Geometry alone is the same mesh, and images are decoded only on demand.
-    assert_eq!(read_mesh_bytes(&bytes, Format::Glb, "t.glb").unwrap(), *mesh);
+    assert_eq!(
+        read_mesh_bytes(&bytes, Format::Glb, "t.glb").unwrap(),
+        *mesh
+    );
     let located = read_glb(&bytes, false).unwrap();
     let texture = located.materials[0].base_color_texture.as_ref().unwrap();
     assert!(texture.image.is_none());
@@ -151,14 +166,28 @@ fn round_trip_of_positions_uvs_colours_and_material() {
 fn sniffing_and_extensions() {
     let (document, bin) = textured_square();
     assert_eq!(Format::sniff(&glb(&document, &bin)), Some(Format::Glb));
-    assert_eq!(Format::sniff(b"  {\"asset\": {\"version\": \"2.0\"}}"), Some(Format::Gltf));
-    assert_eq!(Format::from_path(std::path::Path::new("a.GLB")), Some(Format::Glb));
-    assert_eq!(Format::from_path(std::path::Path::new("a.gltf")), Some(Format::Gltf));
+    assert_eq!(
+        Format::sniff(b"  {\"asset\": {\"version\": \"2.0\"}}"),
+        Some(Format::Gltf)
+    );
+    assert_eq!(
+        Format::from_path(std::path::Path::new("a.GLB")),
+        Some(Format::Glb)
+    );
+    assert_eq!(
+        Format::from_path(std::path::Path::new("a.gltf")),
+        Some(Format::Gltf)
+    );
 }
 
 /// A document of one mesh whose primitives are given, over `positions`
 /// (accessor 0) and `indices` (accessor 1, `u32`), with `nodes`.
-fn indexed(positions: &[f32], indices: &[u32], primitives: Value, nodes: Value) -> (Value, Vec<u8>) {
+fn indexed(
+    positions: &[f32],
+    indices: &[u32],
+    primitives: Value,
+    nodes: Value,
+) -> (Value, Vec<u8>) {
     let mut bin = floats(positions);
     let split = bin.len();
     bin.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
@@ -196,9 +225,20 @@ fn strips_and_fans_become_triangles_and_lines_are_reported() {
     // Strip: (0 1 2), (2 1 3) turned back, (2 3 4); fan: (0 1 2), (0 2 3), (0 3 4).
     assert_eq!(
         faces,
-        [&[0, 1, 2][..], &[2, 1, 3], &[2, 3, 4], &[0, 1, 2], &[0, 2, 3], &[0, 3, 4]]
+        [
+            &[0, 1, 2][..],
+            &[2, 1, 3],
+            &[2, 3, 4],
+            &[0, 1, 2],
+            &[0, 2, 3],
+            &[0, 3, 4]
+        ]
     );
-    assert_eq!(asset.mesh.positions.len(), 5, "both primitives welded onto one set");
+    assert_eq!(
+        asset.mesh.positions.len(),
+        5,
+        "both primitives welded onto one set"
+    );
     assert_eq!(asset.dropped[0].kind, Kind::Lines);
     assert_eq!(asset.dropped[0].count, 5);
 }
@@ -217,7 +257,10 @@ fn mirroring_nodes_reverse_windings_and_instances_repeat() {
         let p = |k: usize| mesh.positions[f[k] as usize];
         (p(1) - p(0)).cross(p(2) - p(0)).z
     };
-    assert!(normal(mesh.face(0)) > 0.0 && normal(mesh.face(1)) > 0.0, "both face +z");
+    assert!(
+        normal(mesh.face(0)) > 0.0 && normal(mesh.face(1)) > 0.0,
+        "both face +z"
+    );
 }
 
 #[test]
@@ -226,7 +269,11 @@ fn unreferenced_vertices_are_left_out() {
     let (document, bin) = indexed(&STRIP, &[4, 3, 2], primitives, json!([{"mesh": 0}]));
     let mesh = read_mesh_bytes(&glb(&document, &bin), Format::Glb, "t.glb").unwrap();
     assert_eq!(mesh.positions.len(), 3);
-    assert_eq!(mesh.positions[0], DVec3::new(0.0, 1.0, 0.0), "accessor order kept");
+    assert_eq!(
+        mesh.positions[0],
+        DVec3::new(0.0, 1.0, 0.0),
+        "accessor order kept"
+    );
     assert_eq!(mesh.face(0), [2, 1, 0]);
 }
 
@@ -253,25 +300,47 @@ fn files_beside_a_gltf_and_a_missing_image() {
     let options = AssetOptions::DEFAULT.with_images(true);
     let asset = read_asset(&path, &options).unwrap();
     assert_eq!(asset.mesh.face_count(), 6);
-    assert_eq!(asset.mesh.positions.len(), 4, "three primitives, one surface");
+    assert_eq!(
+        asset.mesh.positions.len(),
+        4,
+        "three primitives, one surface"
+    );
     let texture = asset.materials[0].base_color_texture.as_ref().unwrap();
-    assert_eq!(texture.source, ImageSource::File(dir.path().join("tex/skin.png")));
+    assert_eq!(
+        texture.source,
+        ImageSource::File(dir.path().join("tex/skin.png"))
+    );
     assert_eq!(texture.image.as_ref().unwrap().width, 3);
     assert_eq!(asset.materials[1].base_color_texture, None);
-    let missing = asset.dropped.iter().find(|d| d.kind == Kind::Textures).unwrap();
+    let missing = asset
+        .dropped
+        .iter()
+        .find(|d| d.kind == Kind::Textures)
+        .unwrap();
     assert!(missing.detail.contains("missing.png"), "{missing:?}");
     assert_eq!(asset.materials.len(), 3, "two and the default");
     assert_eq!(asset.face_materials, Some(vec![0, 0, 1, 1, 2, 2]));
     let uv = asset.tex_coords.unwrap();
-    assert_eq!(uv.corners[6..], [TexCoords::NONE; 12], "untextured primitives");
+    assert_eq!(
+        uv.corners[6..],
+        [TexCoords::NONE; 12],
+        "untextured primitives"
+    );
     assert_eq!(read_mesh(&path).unwrap(), asset.mesh);
 
     std::fs::remove_file(dir.path().join("square data.bin")).unwrap();
     let e = read_mesh(&path).unwrap_err().to_string();
-    assert!(e.contains("square.gltf: cannot read buffer 0") && e.contains("square data.bin"), "{e}");
-    let e = read_mesh_bytes(&serde_json::to_vec(&document).unwrap(), Format::Gltf, "m.gltf")
-        .unwrap_err()
-        .to_string();
+    assert!(
+        e.contains("square.gltf: cannot read buffer 0") && e.contains("square data.bin"),
+        "{e}"
+    );
+    let e = read_mesh_bytes(
+        &serde_json::to_vec(&document).unwrap(),
+        Format::Gltf,
+        "m.gltf",
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("read from memory"), "{e}");
 }
 
@@ -291,20 +360,68 @@ fn hostile_documents_fail_cleanly() {
         err(&d, &bin)
     };
     let cases = [
-        (edit(&["bufferViews", "0", "byteStride"], json!(4)), "byte stride 4 below the element size 12"),
+        (
+            edit(&["bufferViews", "0", "byteStride"], json!(4)),
+            "byte stride 4 below the element size 12",
+        ),
         (edit(&["accessors", "0", "count"], json!(0)), "count 0"),
-        (edit(&["accessors", "0", "count"], json!(4_000_000_000u64)), "do not fit"),
-        (edit(&["accessors", "0", "byteOffset"], json!(40)), "do not fit"),
-        (edit(&["bufferViews", "0", "byteLength"], json!(1 << 30)), "outside its buffer"),
-        (edit(&["nodes", "1", "children"], json!([0])), "reached twice"),
-        (edit(&["nodes", "1", "scale"], json!([1e39, 1.0, 1.0])), "not finite"),
-        (edit(&["accessors"], json!([])), "POSITION is accessor 0, of 0"),
-        (edit(&["accessors", "3", "componentType"], json!(5126)), "indices of type"),
-        (edit(&["accessors", "0", "type"], json!("VEC2")), "expected [Vec3]"),
-        (edit(&["extensionsRequired"], json!(["KHR_draco_mesh_compression"])), "KHR_draco_mesh_compression"),
-        (edit(&["buffers", "0", "byteLength"], json!(1 << 20)), "declares 1048576"),
-        (edit(&["buffers", "0", "uri"], json!("https://example.invalid/x.bin")), "only relative URIs"),
-        (edit(&["meshes", "0", "primitives", "0", "attributes", "COLOR_0"], json!(1)), "expected [Vec4]"),
+        (
+            edit(&["accessors", "0", "count"], json!(4_000_000_000u64)),
+            "do not fit",
+        ),
+        (
+            edit(&["accessors", "0", "byteOffset"], json!(40)),
+            "do not fit",
+        ),
+        (
+            edit(&["bufferViews", "0", "byteLength"], json!(1 << 30)),
+            "outside its buffer",
+        ),
+        (
+            edit(&["nodes", "1", "children"], json!([0])),
+            "reached twice",
+        ),
+        (
+            edit(&["nodes", "1", "scale"], json!([1e39, 1.0, 1.0])),
+            "not finite",
+        ),
+        (
+            edit(&["accessors"], json!([])),
+            "POSITION is accessor 0, of 0",
+        ),
+        (
+            edit(&["accessors", "3", "componentType"], json!(5126)),
+            "indices of type",
+        ),
+        (
+            edit(&["accessors", "0", "type"], json!("VEC2")),
+            "expected [Vec3]",
+        ),
+        (
+            edit(
+                &["extensionsRequired"],
+                json!(["KHR_draco_mesh_compression"]),
+            ),
+            "KHR_draco_mesh_compression",
+        ),
+        (
+            edit(&["buffers", "0", "byteLength"], json!(1 << 20)),
+            "declares 1048576",
+        ),
+        (
+            edit(
+                &["buffers", "0", "uri"],
+                json!("https://example.invalid/x.bin"),
+            ),
+            "only relative URIs",
+        ),
+        (
+            edit(
+                &["meshes", "0", "primitives", "0", "attributes", "COLOR_0"],
+                json!(1),
+            ),
+            "expected [Vec4]",
+        ),
     ];
     for (message, fragment) in cases {
         assert!(message.starts_with("t.glb: "), "{message}");
@@ -335,6 +452,10 @@ fn nodes_repeating_a_mesh_are_bounded() {
     assert!(e.contains("vertices once nodes repeat their meshes"), "{e}");
 }
 
+/// Structured mutations per run of the test (a longer run:
+/// `QM_GLTF_MUTATIONS=200000 cargo test -p qm-io mutated`).
+const MUTATIONS: usize = 2000;
+
 #[test]
 fn mutated_files_never_panic() {
     let (document, bin) = textured_square();
@@ -348,9 +469,104 @@ fn mutated_files_never_panic() {
         }
         let _ = read_glb(&bytes, true);
     }
+    // Numbers of the JSON replaced by values at the edges.
+    let text = serde_json::to_string(&document).unwrap();
+    let numbers: Vec<(usize, usize)> = text
+        .char_indices()
+        .filter(|&(k, c)| {
+            c.is_ascii_digit() && !text[..k].ends_with(|p: char| p.is_ascii_digit() || p == '.')
+        })
+        .map(|(k, _)| {
+            (
+                k,
+                k + text[k..]
+                    .find(|c: char| !c.is_ascii_digit() && c != '.')
+                    .unwrap_or(0),
+            )
+        })
+        .collect();
+    let edges = [
+        "0",
+        "1",
+        "2",
+        "3",
+        "4",
+        "7",
+        "255",
+        "4294967295",
+        "18446744073709551615",
+        "1e39",
+        "0.5",
+        "65536",
+        "-1",
+    ];
+    let runs = std::env::var("QM_GLTF_MUTATIONS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(MUTATIONS);
+    let mut rng = crate::SplitMix64::new(48);
+    for _ in 0..runs {
+        let mut mutated = text.clone();
+        for _ in 0..1 + rng.next_u64() % 3 {
+            let (start, end) = numbers[rng.below(numbers.len())];
+            if end <= mutated.len()
+                && mutated.is_char_boundary(start)
+                && mutated.is_char_boundary(end)
+            {
+                let edge = edges[rng.below(edges.len())];
+                mutated.replace_range(start..end, &format!("{edge:<width$}", width = end - start));
+            }
+        }
+        let Ok(value) = serde_json::from_str::<Value>(&mutated) else {
+            continue;
+        };
+        let _ = read_glb(&glb(&value, &bin), true);
+    }
     let mut rng = crate::SplitMix64::new(47);
     for _ in 0..300 {
         let cut = (rng.next_u64() % valid.len() as u64) as usize;
         let _ = read_glb(&valid[..cut], true);
     }
+}
+
+#[test]
+fn quantized_positions_and_appearance_only_extensions() {
+    // KHR_mesh_quantization: u16 positions every 8 bytes.
+    let mut bin: Vec<u8> = [[0u16, 0, 0, 0], [2, 0, 0, 0], [0, 2, 0, 0]]
+        .iter()
+        .flatten()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    bin.extend([0u32, 1, 2].iter().flat_map(|i| i.to_le_bytes()));
+    let document = json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["KHR_mesh_quantization", "KHR_texture_transform"],
+        "extensionsRequired": ["KHR_mesh_quantization", "KHR_texture_transform"],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5123, "count": 3, "type": "VEC3",
+             "min": [0, 0, 0], "max": [2, 2, 0]},
+            {"bufferView": 1, "componentType": 5125, "count": 3, "type": "SCALAR"}
+        ],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 24, "byteStride": 8},
+            {"buffer": 0, "byteOffset": 24, "byteLength": 12}
+        ],
+        "buffers": [{"byteLength": 36}]
+    });
+    let asset = read_glb(&glb(&document, &bin), false).unwrap();
+    assert_eq!(
+        asset.mesh.positions[2],
+        DVec3::new(0.0, 2.0, 0.0),
+        "no scene: each mesh once"
+    );
+    let extensions = asset
+        .dropped
+        .iter()
+        .find(|d| d.kind == Kind::Extensions)
+        .unwrap();
+    assert_eq!(
+        extensions.detail,
+        "glTF extensions KHR_texture_transform (not read)"
+    );
 }

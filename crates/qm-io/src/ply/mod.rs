@@ -162,7 +162,12 @@ impl Colors {
 /// Names of the colour channels: red, green, blue, alpha.
 const COLOR_NAMES: [[&str; 4]; 3] = [
     ["red", "green", "blue", "alpha"],
-    ["diffuse_red", "diffuse_green", "diffuse_blue", "diffuse_alpha"],
+    [
+        "diffuse_red",
+        "diffuse_green",
+        "diffuse_blue",
+        "diffuse_alpha",
+    ],
     ["r", "g", "b", "a"],
 ];
 
@@ -191,7 +196,8 @@ fn describe(header: &Header, dropped: &mut Vec<Dropped>) -> Option<bool> {
                 let mut others: Vec<(Kind, &str)> = Vec::new();
                 for p in def.properties.values() {
                     let name = p.name.as_str();
-                    if let (Some(c), PropertyType::Scalar(t)) = (color_channel(name), &p.data_type) {
+                    if let (Some(c), PropertyType::Scalar(t)) = (color_channel(name), &p.data_type)
+                    {
                         channels[c] = Some(t);
                         continue;
                     }
@@ -218,7 +224,10 @@ fn describe(header: &Header, dropped: &mut Vec<Dropped>) -> Option<bool> {
                 let usable = |t: &&ScalarType| {
                     matches!(
                         t,
-                        ScalarType::UChar | ScalarType::UShort | ScalarType::Float | ScalarType::Double
+                        ScalarType::UChar
+                            | ScalarType::UShort
+                            | ScalarType::Float
+                            | ScalarType::Double
                     )
                 };
                 match channels {
@@ -246,7 +255,9 @@ fn describe(header: &Header, dropped: &mut Vec<Dropped>) -> Option<bool> {
                     }
                     let (kind, what) = match name {
                         _ if color_channel(name).is_some() => (Kind::FaceColors, "face colours"),
-                        "texcoord" | "texnumber" => (Kind::TexCoords, "per-corner texture coordinates"),
+                        "texcoord" | "texnumber" => {
+                            (Kind::TexCoords, "per-corner texture coordinates")
+                        }
                         _ => {
                             names.push(name);
                             continue;

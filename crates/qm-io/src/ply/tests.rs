@@ -407,12 +407,20 @@ fn vertex_colours_of_every_type_with_and_without_alpha() {
     let kinds: Vec<Kind> = asset.dropped.iter().map(|d| d.kind).collect();
     assert_eq!(
         kinds,
-        [Kind::Normals, Kind::Properties, Kind::FaceColors, Kind::Lines]
+        [
+            Kind::Normals,
+            Kind::Properties,
+            Kind::FaceColors,
+            Kind::Lines
+        ]
     );
     assert_eq!(asset.dropped[3].count, 2);
     let held: Vec<(Kind, u64)> = asset.held().iter().map(|d| (d.kind, d.count)).collect();
     assert_eq!(held, [(Kind::VertexColors, 3), (Kind::VertexAlpha, 2)]);
-    assert_eq!(read(&ply("ascii", header, body.as_bytes())).unwrap(), asset.mesh);
+    assert_eq!(
+        read(&ply("ascii", header, body.as_bytes())).unwrap(),
+        asset.mesh
+    );
 
     // Binary, float and ushort channels, diffuse_ names.
     for (kind, write) in [("float", 0), ("ushort", 1)] {
@@ -449,15 +457,35 @@ fn unusable_colours_are_reported_not_fatal() {
     let base = "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n";
     let face = "element face 1\nproperty list uchar int vertex_indices\n";
     let cases = [
-        ("property float red\nproperty float green\nproperty float blue\n", "0 0 0 1 1 1\n1 0 0 255 0 0\n0 1 0 0 0 0\n", "vertex 1 (line"),
-        ("property int red\nproperty int green\nproperty int blue\n", "0 0 0 1 1 1\n1 0 0 1 0 0\n0 1 0 0 0 0\n", "channels"),
-        ("property uchar red\nproperty uchar green\n", "0 0 0 1 1\n1 0 0 1 0\n0 1 0 0 0\n", "channels"),
+        (
+            "property float red\nproperty float green\nproperty float blue\n",
+            "0 0 0 1 1 1\n1 0 0 255 0 0\n0 1 0 0 0 0\n",
+            "vertex 1 (line",
+        ),
+        (
+            "property int red\nproperty int green\nproperty int blue\n",
+            "0 0 0 1 1 1\n1 0 0 1 0 0\n0 1 0 0 0 0\n",
+            "channels",
+        ),
+        (
+            "property uchar red\nproperty uchar green\n",
+            "0 0 0 1 1\n1 0 0 1 0\n0 1 0 0 0\n",
+            "channels",
+        ),
     ];
     for (props, vertices, fragment) in cases {
-        let bytes = ply("ascii", &format!("{base}{props}{face}"), format!("{vertices}3 0 1 2\n").as_bytes());
+        let bytes = ply(
+            "ascii",
+            &format!("{base}{props}{face}"),
+            format!("{vertices}3 0 1 2\n").as_bytes(),
+        );
         let asset = read_asset(&bytes);
         assert!(asset.colors.is_none());
         assert_eq!(asset.dropped[0].kind, Kind::VertexColors);
-        assert!(asset.dropped[0].detail.contains(fragment), "{:?}", asset.dropped);
+        assert!(
+            asset.dropped[0].detail.contains(fragment),
+            "{:?}",
+            asset.dropped
+        );
     }
 }
