@@ -1,5 +1,6 @@
-//! Mesh types and mesh files, the bottom of qm's ladder: [`PolyMesh`], and
-//! readers and writers for OBJ, PLY, OFF and STL in, OBJ and PLY out.
+//! Mesh types and mesh files, the bottom of qm's ladder: [`PolyMesh`] and
+//! [`Asset`], and readers and writers for OBJ, PLY, OFF, STL, glTF and GLB in,
+//! OBJ and PLY out.
 //!
 //! [`read_mesh`] picks the format by extension ([`Format::from_path`]) and, for
 //! an unknown extension, by content; [`read_mesh_bytes`] reads from memory (for
@@ -7,12 +8,35 @@
 //! file in the target's directory, then a rename), [`write_mesh_to`] writes to
 //! any [`std::io::Write`].
 //!
-//! What is kept: vertex positions in file order (unreferenced vertices too) and
-//! faces as polygons with their corner order (quads stay quads). Everything
-//! else (normals, texture coordinates, colours, groups, materials, lines,
-//! points) is ignored. Degenerate faces are kept as written; only triangle
-//! strips drop the triangles with a repeated corner, as strips use them as
-//! padding.
+//! What [`read_mesh`] keeps: vertex positions in file order (unreferenced
+//! vertices too, except in glTF, see below) and faces as polygons with their
+//! corner order (quads stay quads). Degenerate faces are kept as written;
+//! only triangle strips drop the triangles with a repeated corner, as strips
+//! use them as padding.
+//!
+//! [`read_asset`] (and [`read_asset_bytes`]) reads the same geometry and, beside
+//! it, the appearance, in one convention for all formats (colours RGBA in
+//! 0..1, sRGB-encoded; texture coordinates with (0, 0) at the image's
+//! top-left corner, v downwards, so OBJ's v is flipped):
+//! - OBJ: `v x y z r g b` colours, `vt` per face corner, `usemtl`, and the
+//!   `mtllib` libraries' `Kd`, `d`/`Tr` and `map_Kd` (options skipped, paths
+//!   relative to the library).
+//! - PLY: vertex colours `red green blue [alpha]` (`uchar`, `ushort`, `float`,
+//!   `double`; also `diffuse_red` ... and `r g b a`).
+//! - glTF and GLB: `TEXCOORD_0`, `COLOR_0`, materials' `baseColorFactor` and
+//!   `baseColorTexture`, over all primitives of the default scene with node
+//!   transforms applied (`src/gltf_file/mod.rs` says how).
+//! - OFF, STL: geometry only.
+//!
+//! Everything else a file declares is listed in [`Asset::dropped`], one
+//! [`Dropped`] entry an [`AttributeKind`] with a count: normals (qm computes
+//! them), further UV sets, tangents, skinning, morph targets, animations,
+//! lines and points, other material maps, other PLY properties and elements,
+//! unread glTF extensions. An appearance problem never fails the geometry: a
+//! missing or unreadable `.mtl` or image, a bad texture index or a colour
+//! out of range becomes an entry too. Images are decoded (PNG, JPEG, with
+//! the `image` crate, under [`AssetOptions::max_image_bytes`]) only when
+//! [`AssetOptions::images`] asks; otherwise they are only located.
 //!
 //! Input is treated as hostile: every reader returns a [`MeshError`] naming the
 //! file and, for text formats, the line, and never panics. Counts declared in a
@@ -28,6 +52,10 @@
 //!   some CAD tools also start with; the size check (84 + 50 bytes a triangle)
 //!   decides first here.
 //! - OFF: hand-written; no maintained crate reads it.
+//! - glTF: the `gltf` crate (without its `import` and `utils` features)
+//!   parses and validates the document and splits a GLB; buffers, accessors
+//!   and images are read here, since the crate's reader panics on hostile
+//!   accessors (`src/gltf_file/mod.rs` lists the cases).
 //! - OBJ: hand-written, although `tobj` 4 was the plan, because for a mesh codec
 //!   `tobj` changes the mesh: with `single_index: false` every object, group and
 //!   material section is renumbered on its own in order of first use, so

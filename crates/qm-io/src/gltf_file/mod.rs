@@ -17,7 +17,7 @@
 //! vertices whose transformed positions are bit-identical are welded: glTF
 //! splits a vertex wherever any attribute differs (every texture seam, every
 //! material border), which would cut a connected surface into pieces
-//! ([docs/decisions/032](../../../../docs/decisions/032-appearance-readers.md)).
+//! (docs/decisions/032-appearance-readers.md).
 //! `POSITION` may be of any component type (`KHR_mesh_quantization`); sparse
 //! accessors are refused.
 //!
