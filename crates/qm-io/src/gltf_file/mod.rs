@@ -433,8 +433,15 @@ impl Reader<'_> {
                     Some(indices) => indices.count() as u64,
                     None => p.get(&Semantic::Positions).map_or(0, |a| a.count() as u64),
                 };
-                // A strip or fan of n indices has n - 2 triangles.
-                corners = corners.saturating_add(n.saturating_mul(3));
+                let n = match p.mode() {
+                    Mode::Triangles => n,
+                    // A strip or fan of n indices has n - 2 triangles.
+                    Mode::TriangleStrip | Mode::TriangleFan => {
+                        n.saturating_sub(2).saturating_mul(3)
+                    }
+                    _ => 0,
+                };
+                corners = corners.saturating_add(n);
             }
         }
         if placed > MAX_VERTICES {
