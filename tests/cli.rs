@@ -656,3 +656,137 @@ fn a_closed_stdout_is_no_panic() {
         assert!(stderr(&out).starts_with("error: cannot write to stdout"));
     }
 }
+
+/// The warning lines of a run's stderr.
+fn warnings(out: &Output) -> Vec<String> {
+    stderr(out)
+        .lines()
+        .filter(|l| l.starts_with("warning: "))
+        .map(str::to_owned)
+        .collect()
+}
+
+/// The kinds of `qm compress --json`'s `dropped` list.
+fn dropped_kinds(out: &Output) -> (Vec<String>, serde_json::Value) {
+    assert!(out.status.success(), "{}", stderr(out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let kinds = v["dropped"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| d["kind"].as_str().unwrap().to_owned())
+        .collect();
+    (kinds, v)
+}
+
+#[test]
+fn compress_names_every_attribute_it_cannot_carry() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A textured, vertex-coloured OBJ whose second image is missing.
+    std::fs::create_dir(d.join("maps")).unwrap();
+    std::fs::write(d.join("maps/wood.png"), b"located, not decoded").unwrap();
+    std::fs::write(
+        d.join("two.mtl"),
+        "newmtl wood\nKd 0.8 0.6 0.4\nmap_Kd -s 1 1 1 maps/wood.png\n\
+         newmtl stone\nmap_Kd maps/stone.png\nbump maps/n.png\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("two.obj"),
+        "mtllib two.mtl\n\
+         v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 2 0 0 0 0 1\nv 0 1 0 1 1 1\nv 1 1 0 0 0 0\nv 2 1 0 0 0 0\n\
+         vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0 1\n\
+         usemtl wood\nf 1/1/1 2/2/1 5/3/1 4/4/1\nusemtl stone\nf 2/1/1 3/2/1 6/3/1 5/4/1\n",
+    )
+    .unwrap();
+    let out = qm(&["compress", "two.obj", "--base-domain", "input"], d);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(d.join("two.qm").exists(), "and still compresses");
+    let lines = warnings(&out);
+    let expected = [
+        "vertex colours not carried (6)",
+        "texture coordinates not carried (8)",
+        "textures not carried (2)",
+        "materials not carried (2)",
+        "other material maps not carried (1)",
+        "normals not carried (1)",
+        "other properties not carried (1)",
+    ];
+    assert_eq!(lines.len(), expected.len(), "one line a kind: {lines:#?}");
+    for (line, fragment) in lines.iter().zip(expected) {
+        assert!(line.starts_with("warning: two.obj: "), "{line}");
+        assert!(line.contains(fragment), "{line:?} lacks {fragment:?}");
+    }
+    assert!(lines[2].contains("stone.png: not found"), "{}", lines[2]);
+
+    let out = qm(
+        &[
+            "compress",
+            "two.obj",
+            "-o",
+            "j.qm",
+            "--base-domain",
+            "input",
+            "--json",
+            "--quiet",
+        ],
+        d,
+    );
+    assert!(stderr(&out).is_empty(), "--quiet: {}", stderr(&out));
+    let (kinds, v) = dropped_kinds(&out);
+    assert_eq!(
+        kinds,
+        [
+            "vertex_colors",
+            "tex_coords",
+            "textures",
+            "materials",
+            "other_maps",
+            "normals",
+            "properties"
+        ]
+    );
+    assert_eq!(v["dropped"][1]["count"], 8);
+    assert_eq!(
+        v["bytes"].as_u64().unwrap(),
+        std::fs::metadata(d.join("j.qm")).unwrap().len()
+    );
+
+    // The bundled assets: a textured GLB and a vertex-coloured PLY.
+    for (name, expected) in [
+        (
+            "appearance/pico-neo3-left.glb",
+            &["tex_coords", "textures", "materials", "normals"][..],
+        ),
+        ("appearance/greg-turk-cube.ply", &["vertex_colors", "lines"]),
+        ("quad/cc_cube.obj", &[]),
+    ] {
+        let file = Path::new(name).file_name().unwrap().to_str().unwrap();
+        std::fs::copy(asset(name), d.join(file)).unwrap();
+        let out = qm(
+            &[
+                "compress",
+                file,
+                "-o",
+                "a.qm",
+                "--base-domain",
+                "input",
+                "--json",
+            ],
+            d,
+        );
+        let (kinds, v) = dropped_kinds(&out);
+        assert_eq!(kinds, expected, "{name}");
+        assert_eq!(
+            warnings(&out).len(),
+            expected.len(),
+            "{name}: {}",
+            stderr(&out)
+        );
+        if name.ends_with(".glb") {
+            let detail = v["dropped"][1]["detail"].as_str().unwrap();
+            assert!(detail.contains("image/jpeg"), "{detail}");
+        }
+    }
+}

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use qm::io::{Format, read_mesh_bytes};
+use qm::io::{AssetOptions, Format, read_asset_bytes, read_mesh_bytes};
 
 #[path = "../fuzz/fuzz_targets/remesh_hub_input.rs"]
 mod remesh_hub_input;
@@ -18,6 +18,8 @@ fn root() -> PathBuf {
 fn replay(target: &str, bytes: &[u8]) {
     let format = |f| {
         let _ = read_mesh_bytes(bytes, f, "fuzz");
+        let images = AssetOptions::DEFAULT.with_images(true);
+        let _ = read_asset_bytes(bytes, f, "fuzz", &images);
     };
     match target {
         "decode" => {
@@ -27,6 +29,7 @@ fn replay(target: &str, bytes: &[u8]) {
         }
         "obj" => format(Format::Obj),
         "ply" => format(Format::Ply),
+        "gltf" => format(Format::Glb),
         "off" => format(Format::Off),
         "stl" => format(Format::Stl),
         "remesh" => remesh_input::run(bytes),
@@ -53,7 +56,16 @@ fn files(dir: &Path) -> Vec<PathBuf> {
 #[test]
 fn fuzz_seeds_and_findings_do_not_panic() {
     let mut count = 0;
-    for target in ["decode", "obj", "ply", "off", "stl", "remesh", "remesh_hub"] {
+    for target in [
+        "decode",
+        "obj",
+        "ply",
+        "gltf",
+        "off",
+        "stl",
+        "remesh",
+        "remesh_hub",
+    ] {
         for path in files(&root().join("fuzz/corpus").join(target)) {
             let bytes = std::fs::read(&path).unwrap();
             let result = std::panic::catch_unwind(|| replay(target, &bytes));

@@ -112,7 +112,10 @@ impl RemeshArgs {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Compress a mesh (OBJ, PLY, OFF, STL) into a .qm stream.
+    /// Compress a mesh (OBJ, PLY, OFF, STL, glTF, GLB) into a .qm stream.
+    /// What the stream cannot carry yet (colours, texture coordinates,
+    /// textures, materials, normals, ...) is named on stderr, one warning a
+    /// kind.
     Compress {
         /// Input mesh.
         input: PathBuf,
@@ -147,7 +150,12 @@ enum Command {
         /// bytes per hold; see docs/holds.md).
         #[arg(long)]
         no_holds: bool,
-        /// No progress or summary output.
+        /// Print a JSON summary on stdout, with the list of what was not
+        /// carried (`dropped`).
+        #[arg(long)]
+        json: bool,
+        /// No progress, summary or warning output (--json still lists what
+        /// was not carried).
         #[arg(long)]
         quiet: bool,
     },
@@ -328,6 +336,7 @@ fn main() -> ExitCode {
             no_frames,
             frames_from,
             no_holds,
+            json,
             quiet,
         } => {
             let mut options = qm::EncodeOptions::DEFAULT
@@ -343,7 +352,7 @@ fn main() -> ExitCode {
             if let Some(level) = frames_from {
                 options = options.with_frame_source(qm::Frames::ParentsFrom(level));
             }
-            compress(&input, output, &options, &remesh.options(), quiet)
+            compress(&input, output, &options, &remesh.options(), json, quiet)
         }
         Command::Remesh {
             input,
@@ -429,18 +438,61 @@ fn main() -> ExitCode {
     }
 }
 
+/// What `qm compress --json` prints.
+#[derive(serde::Serialize)]
+struct CompressSummary {
+    input: String,
+    output: String,
+    bytes: usize,
+    header_bytes: usize,
+    base_bytes: usize,
+    stream_bytes: usize,
+    passes: usize,
+    samples: usize,
+    base_quads: usize,
+    level: u32,
+    /// What the stream does not carry, one entry a kind.
+    dropped: Vec<DroppedEntry>,
+}
+
+/// One kind of attribute not carried.
+#[derive(serde::Serialize)]
+struct DroppedEntry {
+    kind: &'static str,
+    count: u64,
+    detail: String,
+}
+
 fn compress(
     input: &Path,
     output: Option<PathBuf>,
     options: &qm::EncodeOptions,
     remesh_options: &qm::RemeshOptions,
+    json: bool,
     quiet: bool,
 ) -> Result<(), Failure> {
     let output = output.unwrap_or_else(|| default_output(input, "qm"));
     check_output(input, &output)?;
     let progress = Progress::new(quiet);
     progress.step("reading mesh");
-    let mesh = qm::read_mesh(input).map_err(|e| Failure::about(input, e))?;
+    // Images are located, not decoded: nothing uses their pixels yet.
+    let asset =
+        qm::read_asset(input, &qm::AssetOptions::DEFAULT).map_err(|e| Failure::about(input, e))?;
+    let dropped = qm::not_carried(&asset);
+    let mesh = asset.mesh;
+    progress.suspend(|| {
+        if !quiet {
+            for d in &dropped {
+                note!(
+                    "warning: {}: {} not carried ({}): {}",
+                    input.display(),
+                    d.kind,
+                    d.count,
+                    d.detail
+                );
+            }
+        }
+    });
     progress.step("making the mesh semi-regular (subdivision connectivity or remeshing)");
     let remeshing = |step: qm::param::Step| progress.step(format!("remeshing: {step}"));
     let prepared = qm::prepare_reporting(&mesh, remesh_options, &remeshing)
@@ -456,8 +508,9 @@ fn compress(
     progress.step("writing");
     write_atomic(&output, &compressed.bytes)?;
     progress.finish();
+    let total = compressed.bytes.len();
+    let stream = total - compressed.header_bytes - compressed.base_bytes;
     if !quiet {
-        let total = compressed.bytes.len();
         note!(
             "{}: {} vertices, {} base quads x level {} -> {}: {} bytes (header {}, base {}, stream {}), {} passes",
             input.display(),
@@ -468,8 +521,34 @@ fn compress(
             total,
             compressed.header_bytes,
             compressed.base_bytes,
-            total - compressed.header_bytes - compressed.base_bytes,
+            stream,
             compressed.pass_ends.len(),
+        );
+    }
+    if json {
+        let summary = CompressSummary {
+            input: input.display().to_string(),
+            output: output.display().to_string(),
+            bytes: total,
+            header_bytes: compressed.header_bytes,
+            base_bytes: compressed.base_bytes,
+            stream_bytes: stream,
+            passes: compressed.pass_ends.len(),
+            samples: compressed.samples,
+            base_quads: compressed.base_quads,
+            level: compressed.level,
+            dropped: dropped
+                .into_iter()
+                .map(|d| DroppedEntry {
+                    kind: d.kind.key(),
+                    count: d.count,
+                    detail: d.detail,
+                })
+                .collect(),
+        };
+        out!(
+            "{}",
+            serde_json::to_string_pretty(&summary).expect("plain data serializes")
         );
     }
     Ok(())

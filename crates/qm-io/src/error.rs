@@ -24,7 +24,7 @@ pub enum MeshError {
         problem: Problem,
     },
     /// Bad input: neither the extension nor the content tells the format.
-    #[error("{file}: unknown mesh format (known: .obj, .ply, .off, .stl)")]
+    #[error("{file}: unknown mesh format (known: .obj, .ply, .off, .stl, .gltf, .glb)")]
     UnknownFormat {
         /// The file name given by the caller.
         file: String,
@@ -177,6 +177,14 @@ pub enum Problem {
     Syntax(String),
     /// A valid variant of the format that this reader does not handle.
     Unsupported(String),
+    /// A file the mesh file names, and whose data the geometry needs (a
+    /// glTF buffer), cannot be read.
+    Resource {
+        /// What and where (`buffer 0 "mesh.bin"`).
+        what: String,
+        /// Why (the system's message).
+        cause: String,
+    },
 }
 
 impl fmt::Display for Problem {
@@ -209,6 +217,7 @@ impl fmt::Display for Problem {
             }
             Problem::Syntax(message) => write!(f, "{message}"),
             Problem::Unsupported(what) => write!(f, "unsupported: {what}"),
+            Problem::Resource { what, cause } => write!(f, "cannot read {what}: {cause}"),
         }
     }
 }

@@ -1,5 +1,6 @@
-//! Mesh types and mesh files, the bottom of qm's ladder: [`PolyMesh`], and
-//! readers and writers for OBJ, PLY, OFF and STL in, OBJ and PLY out.
+//! Mesh types and mesh files, the bottom of qm's ladder: [`PolyMesh`] and
+//! [`Asset`], and readers and writers for OBJ, PLY, OFF, STL, glTF and GLB in,
+//! OBJ and PLY out.
 //!
 //! [`read_mesh`] picks the format by extension ([`Format::from_path`]) and, for
 //! an unknown extension, by content; [`read_mesh_bytes`] reads from memory (for
@@ -7,12 +8,35 @@
 //! file in the target's directory, then a rename), [`write_mesh_to`] writes to
 //! any [`std::io::Write`].
 //!
-//! What is kept: vertex positions in file order (unreferenced vertices too) and
-//! faces as polygons with their corner order (quads stay quads). Everything
-//! else (normals, texture coordinates, colours, groups, materials, lines,
-//! points) is ignored. Degenerate faces are kept as written; only triangle
-//! strips drop the triangles with a repeated corner, as strips use them as
-//! padding.
+//! What [`read_mesh`] keeps: vertex positions in file order (unreferenced
+//! vertices too, except in glTF, see below) and faces as polygons with their
+//! corner order (quads stay quads). Degenerate faces are kept as written;
+//! only triangle strips drop the triangles with a repeated corner, as strips
+//! use them as padding.
+//!
+//! [`read_asset`] (and [`read_asset_bytes`]) reads the same geometry and, beside
+//! it, the appearance, in one convention for all formats (colours RGBA in
+//! 0..1, sRGB-encoded; texture coordinates with (0, 0) at the image's
+//! top-left corner, v downwards, so OBJ's v is flipped):
+//! - OBJ: `v x y z r g b` colours, `vt` per face corner, `usemtl`, and the
+//!   `mtllib` libraries' `Kd`, `d`/`Tr` and `map_Kd` (options skipped, paths
+//!   relative to the library).
+//! - PLY: vertex colours `red green blue [alpha]` (`uchar`, `ushort`, `float`,
+//!   `double`; also `diffuse_red` ... and `r g b a`).
+//! - glTF and GLB: `TEXCOORD_0`, `COLOR_0`, materials' `baseColorFactor` and
+//!   `baseColorTexture`, over all primitives of the default scene with node
+//!   transforms applied (`src/gltf_file/mod.rs` says how).
+//! - OFF, STL: geometry only.
+//!
+//! Everything else a file declares is listed in [`Asset::dropped`], one
+//! [`Dropped`] entry an [`AttributeKind`] with a count: normals (qm computes
+//! them), further UV sets, tangents, skinning, morph targets, animations,
+//! lines and points, other material maps, other PLY properties and elements,
+//! unread glTF extensions. An appearance problem never fails the geometry: a
+//! missing or unreadable `.mtl` or image, a bad texture index or a colour
+//! out of range becomes an entry too. Images are decoded (PNG, JPEG, with
+//! the `image` crate, under [`AssetOptions::max_image_bytes`]) only when
+//! [`AssetOptions::images`] asks; otherwise they are only located.
 //!
 //! Input is treated as hostile: every reader returns a [`MeshError`] naming the
 //! file and, for text formats, the line, and never panics. Counts declared in a
@@ -28,6 +52,10 @@
 //!   some CAD tools also start with; the size check (84 + 50 bytes a triangle)
 //!   decides first here.
 //! - OFF: hand-written; no maintained crate reads it.
+//! - glTF: the `gltf` crate (without its `import` and `utils` features)
+//!   parses and validates the document and splits a GLB; buffers, accessors
+//!   and images are read here, since the crate's reader panics on hostile
+//!   accessors (`src/gltf_file/mod.rs` lists the cases).
 //! - OBJ: hand-written, although `tobj` 4 was the plan, because for a mesh codec
 //!   `tobj` changes the mesh: with `single_index: false` every object, group and
 //!   material section is renumbered on its own in order of first use, so
@@ -40,7 +68,10 @@
 //!   debug builds. Positions and faces are the easy part of OBJ, so reading them
 //!   directly costs less than repairing all of that.
 
+mod asset;
 mod error;
+mod gltf_file;
+mod mtl;
 mod obj;
 mod off;
 mod ply;
@@ -55,6 +86,10 @@ use std::path::Path;
 
 use glam::DVec3;
 
+pub use asset::{
+    Asset, AssetOptions, AttributeKind, Dropped, Image, ImageSource, Material, TexCoords, Texture,
+    add_dropped,
+};
 pub use error::{MeshError, Problem};
 pub use glam;
 pub use polymesh::PolyMesh;
@@ -72,6 +107,11 @@ pub enum Format {
     Off,
     /// Stereolithography (ASCII or binary); read only.
     Stl,
+    /// glTF 2.0 as JSON, buffers in files beside it or in `data:` URIs; read
+    /// only.
+    Gltf,
+    /// glTF 2.0 binary (GLB); read only.
+    Glb,
 }
 
 impl Format {
@@ -83,6 +123,8 @@ impl Format {
             "ply" => Some(Format::Ply),
             "off" => Some(Format::Off),
             "stl" => Some(Format::Stl),
+            "gltf" => Some(Format::Gltf),
+            "glb" => Some(Format::Glb),
             _ => None,
         }
     }
@@ -92,6 +134,12 @@ impl Format {
     pub fn sniff(bytes: &[u8]) -> Option<Format> {
         if bytes.starts_with(b"ply\n") || bytes.starts_with(b"ply\r\n") {
             return Some(Format::Ply);
+        }
+        if bytes.starts_with(b"glTF") {
+            return Some(Format::Glb);
+        }
+        if gltf_file::looks_like_gltf_json(bytes) {
+            return Some(Format::Gltf);
         }
         // The size test comes before the text tests because binary STL headers
         // may begin with "solid" too.
@@ -121,13 +169,31 @@ impl fmt::Display for Format {
             Format::Ply => "PLY",
             Format::Off => "OFF",
             Format::Stl => "STL",
+            Format::Gltf => "glTF",
+            Format::Glb => "GLB",
         })
     }
 }
 
 /// Reads a mesh file, choosing the format by extension or, for an unknown
-/// extension, by content.
+/// extension, by content. Only positions and faces are read; a glTF file's
+/// external buffers are read from the file's folder.
 pub fn read_mesh(path: &Path) -> Result<PolyMesh, MeshError> {
+    read_file(path, None).map(|asset| asset.mesh)
+}
+
+/// Reads a mesh file with its appearance: what [`read_mesh`] reads, and
+/// vertex colours, texture coordinates, materials and their base colour
+/// textures where the format has them, with the list of what was not kept
+/// ([`Asset::dropped`]). Files the mesh file names (`.mtl`, images, glTF
+/// buffers) are resolved against its folder. A missing or unreadable
+/// material library or image is not an error: it is listed as dropped. (A
+/// missing glTF buffer is an error: the geometry is in it.)
+pub fn read_asset(path: &Path, options: &AssetOptions) -> Result<Asset, MeshError> {
+    read_file(path, Some(options))
+}
+
+fn read_file(path: &Path, appearance: Option<&AssetOptions>) -> Result<Asset, MeshError> {
     let file = path.display().to_string();
     let bytes = fs::read(path).map_err(|e| MeshError::io(&file, e))?;
     if bytes.is_empty() {
@@ -137,19 +203,82 @@ pub fn read_mesh(path: &Path) -> Result<PolyMesh, MeshError> {
         Some(format) => format,
         None => Format::sniff(&bytes).ok_or(MeshError::UnknownFormat { file: file.clone() })?,
     };
-    read_mesh_bytes(&bytes, format, &file)
+    let folder = match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => dir,
+        _ => Path::new("."),
+    };
+    let source = Source {
+        name: &file,
+        folder: Some(folder),
+        appearance,
+    };
+    read_source(&bytes, format, &source)
 }
 
 /// Reads a mesh in `format` from memory; `name` stands for the file in errors.
+/// A glTF file whose buffers are not inside it cannot be read this way.
 pub fn read_mesh_bytes(bytes: &[u8], format: Format, name: &str) -> Result<PolyMesh, MeshError> {
+    let source = Source {
+        name,
+        folder: None,
+        appearance: None,
+    };
+    read_source(bytes, format, &source).map(|asset| asset.mesh)
+}
+
+/// [`read_asset`] from memory; `name` stands for the file in errors. Files
+/// the mesh names (material libraries, images) cannot be found from memory
+/// and are listed as dropped; images inside a GLB are read.
+pub fn read_asset_bytes(
+    bytes: &[u8],
+    format: Format,
+    name: &str,
+    options: &AssetOptions,
+) -> Result<Asset, MeshError> {
+    let source = Source {
+        name,
+        folder: None,
+        appearance: Some(options),
+    };
+    read_source(bytes, format, &source)
+}
+
+/// What a reader needs besides the bytes.
+pub(crate) struct Source<'a> {
+    /// The file name, for errors.
+    name: &'a str,
+    /// The folder that names in the file are relative to; `None` for bytes
+    /// read from memory.
+    folder: Option<&'a Path>,
+    /// `None` to read geometry alone.
+    appearance: Option<&'a AssetOptions>,
+}
+
+fn read_source(bytes: &[u8], format: Format, source: &Source) -> Result<Asset, MeshError> {
+    let name = source.name;
     if bytes.is_empty() {
         return Err(MeshError::malformed(name, None, Problem::Empty));
     }
     match format {
-        Format::Obj => obj::read(bytes, name),
-        Format::Ply => ply::read(bytes, name),
-        Format::Off => off::read(bytes, name),
-        Format::Stl => stl::read(bytes, name),
+        Format::Obj => obj::read(bytes, source),
+        Format::Ply => ply::read(bytes, source),
+        Format::Off => {
+            let mut asset = Asset::of(off::read(bytes, name)?);
+            if source.appearance.is_some() {
+                off::report_variant(bytes, asset.mesh.positions.len(), &mut asset.dropped);
+            }
+            Ok(asset)
+        }
+        Format::Stl => {
+            let mut asset = Asset::of(stl::read(bytes, name)?);
+            if source.appearance.is_some() {
+                let facets = asset.mesh.face_count() as u64;
+                let detail = "facet normals (qm computes normals from the surface)".to_owned();
+                add_dropped(&mut asset.dropped, AttributeKind::Normals, facets, detail);
+            }
+            Ok(asset)
+        }
+        Format::Gltf | Format::Glb => gltf_file::read(bytes, source),
     }
 }
 
@@ -255,7 +384,9 @@ fn write_unchecked(w: &mut impl Write, format: Format, mesh: &PolyMesh) -> io::R
     match format {
         Format::Obj => obj::write(&mut w, mesh)?,
         Format::Ply => ply::write(&mut w, mesh)?,
-        Format::Off | Format::Stl => unreachable!("check_writable refuses {format}"),
+        Format::Off | Format::Stl | Format::Gltf | Format::Glb => {
+            unreachable!("check_writable refuses {format}")
+        }
     }
     w.flush()
 }
@@ -269,7 +400,7 @@ fn check_writable(mesh: &PolyMesh, format: Format, file: &str) -> Result<(), Mes
     let max_corners = match format {
         Format::Obj => usize::MAX,
         Format::Ply => ply::MAX_WRITTEN_CORNERS,
-        Format::Off | Format::Stl => {
+        Format::Off | Format::Stl | Format::Gltf | Format::Glb => {
             return Err(MeshError::UnsupportedOutput {
                 file: file.to_owned(),
                 format,

@@ -41,6 +41,33 @@ fn keyword_dimension(token: &str) -> Option<bool> {
     }
 }
 
+/// Lists what the header keyword's variants add after each position (`ST`
+/// texture coordinates, `C` colours, `N` normals), which this reader skips.
+pub(super) fn report_variant(bytes: &[u8], vertices: usize, dropped: &mut Vec<crate::Dropped>) {
+    use crate::AttributeKind as Kind;
+    let Some(keyword) = numbered_lines(bytes)
+        .find_map(|(_, line)| tokens(line))
+        .and_then(|t| std::str::from_utf8(t[0]).ok().map(str::to_owned))
+    else {
+        return;
+    };
+    let Some(mut rest) = keyword.strip_suffix("OFF") else {
+        return;
+    };
+    let count = vertices as u64;
+    for (prefix, kind, what) in [
+        ("ST", Kind::TexCoords, "texture coordinates"),
+        ("C", Kind::VertexColors, "colours"),
+        ("N", Kind::Normals, "normals"),
+    ] {
+        if let Some(after) = rest.strip_prefix(prefix) {
+            rest = after;
+            let detail = format!("vertex {what} of {keyword} (not read from OFF)");
+            crate::add_dropped(dropped, kind, count, detail);
+        }
+    }
+}
+
 /// A line's content (comment removed) split into tokens, or `None` for a
 /// blank line.
 fn tokens(line: &[u8]) -> Option<Vec<&[u8]>> {

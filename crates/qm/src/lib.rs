@@ -20,7 +20,7 @@
 //!
 //! | module | crate | owns |
 //! |---|---|---|
-//! | [`io`] | `qm-io` | [`PolyMesh`] and mesh files (OBJ, PLY, OFF, STL) |
+//! | [`io`] | `qm-io` | [`PolyMesh`], [`Asset`] and mesh files (OBJ, PLY, OFF, STL, glTF) |
 //! | [`lift`] | `qm-lift` | base quad meshes, sample layouts, quantization, the integer lifting transform |
 //! | [`tree`] | `qm-tree` | zerotrees over edge and face coefficients |
 //! | [`ezw`] | `qm-ezw` | bit-plane zerotree coding, the arithmetic coder |
@@ -51,13 +51,38 @@ pub use qm_codec::{
     Contexts, DecodeOptions, DecodeStatus, Decoder, Decompressed, EncodeOptions, Estimate, Frames,
     LevelChoice, LevelMesh, Limits, PrefixRow, StreamDecoder, UpdateRule, Weighting, prefix_table,
 };
-pub use qm_io::PolyMesh;
+pub use qm_io::{Asset, AssetOptions, PolyMesh};
 pub use qm_lift::SemiRegularMesh;
 pub use qm_param::{Detected, RemeshOptions, RemeshReport, Remeshed};
 
 /// Reads a mesh file (OBJ, PLY, OFF or STL, by extension or content).
 pub fn read_mesh(path: impl AsRef<Path>) -> Result<PolyMesh> {
     Ok(qm_io::read_mesh(path.as_ref())?)
+}
+
+/// Reads a mesh file with its appearance (OBJ, PLY, OFF, STL, glTF or GLB):
+/// the geometry [`read_mesh`] reads, and vertex colours, texture coordinates
+/// and materials with their base colour texture where the format has them,
+/// with what was not kept ([`io`]'s module docs; `docs/appearance.md`). A
+/// missing material library or image is listed, not an error.
+pub fn read_asset(path: impl AsRef<Path>, options: &AssetOptions) -> Result<Asset> {
+    Ok(qm_io::read_asset(path.as_ref(), options)?)
+}
+
+/// What of `asset` a `.qm` stream does not carry, one entry a kind, in the
+/// order of [`io::AttributeKind`]: the stream holds the geometry alone for
+/// now, so that is everything the asset holds beside it
+/// ([`Asset::held`]: vertex colours and alpha, texture coordinates,
+/// textures, materials) and everything its reader did not keep
+/// ([`Asset::dropped`]: normals, which decoders compute from the surface,
+/// further UV sets, other maps, ...).
+pub fn not_carried(asset: &Asset) -> Vec<io::Dropped> {
+    let mut list = asset.held();
+    for d in &asset.dropped {
+        qm_io::add_dropped(&mut list, d.kind, d.count, d.detail.clone());
+    }
+    list.sort_by_key(|d| d.kind);
+    list
 }
 
 /// Writes a mesh file (OBJ or PLY, by extension), atomically: a failure
@@ -294,6 +319,27 @@ mod tests {
             messages.push(text);
             next = inner.source();
         }
+    }
+
+    #[test]
+    fn everything_beside_the_geometry_is_not_carried() {
+        let dir = std::env::temp_dir().join(format!("qm-not-carried-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("c.obj");
+        let text = "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nvt 0 0\nvn 0 0 1\n\
+                    mtllib gone.mtl\nusemtl a\nf 1/1/1 2/1/1 3/1/1\n";
+        std::fs::write(&path, text).unwrap();
+        let asset = read_asset(&path, &AssetOptions::DEFAULT).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+        let kinds: Vec<io::AttributeKind> = not_carried(&asset).iter().map(|d| d.kind).collect();
+        use io::AttributeKind as K;
+        assert_eq!(
+            kinds,
+            [K::VertexColors, K::TexCoords, K::Materials, K::Normals]
+        );
+        let materials = &not_carried(&asset)[2];
+        assert!(materials.detail.contains("gone.mtl"), "{materials:?}");
+        assert!(not_carried(&Asset::default()).is_empty());
     }
 
     #[test]

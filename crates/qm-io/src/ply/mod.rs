@@ -14,6 +14,14 @@
 //! corner are how strips turn corners and are dropped. Every other element and
 //! property is skipped.
 //!
+//! With appearance ([`crate::read_asset`]): vertex colours `red green blue
+//! [alpha]` (also `diffuse_red` ... and `r g b a`) of type `uchar` (/255),
+//! `ushort` (/65535), `float` or `double` (0..1 as written; a value outside
+//! drops the colours, not the mesh). Every other property and element the
+//! header declares is listed as dropped: normals, texture coordinates (per
+//! vertex or MeshLab's per-corner `texcoord` and `TextureFile` comment), face
+//! colours, `edge` elements, the rest as properties.
+//!
 //! Written: binary little endian, `double` coordinates (exact) and faces as
 //! `list uchar int vertex_indices`.
 
@@ -24,8 +32,9 @@ use ply_rs_bw::ply::{
     ElementDef, Encoding, Header, PropertyAccess, PropertyAccessResult, PropertyType, ScalarType,
 };
 
-use super::{MAX_VERTICES, MeshBuilder, MeshError, Problem, numbered_lines};
-use crate::PolyMesh;
+use super::{MAX_VERTICES, MeshBuilder, MeshError, Problem, Source, numbered_lines};
+use crate::asset::add_dropped;
+use crate::{Asset, AttributeKind as Kind, Dropped, PolyMesh};
 use glam::DVec3;
 
 /// The most corners a written face may have (`uchar` list count).
@@ -36,11 +45,12 @@ pub(super) const MAX_WRITTEN_VERTICES: usize = i32::MAX as usize;
 /// Where an error is: the line of an ASCII record or header line, if known.
 type Failure = (Option<usize>, Problem);
 
-pub(super) fn read(bytes: &[u8], file: &str) -> Result<PolyMesh, MeshError> {
-    read_inner(bytes).map_err(|(line, problem)| MeshError::malformed(file, line, problem))
+pub(super) fn read(bytes: &[u8], source: &Source) -> Result<Asset, MeshError> {
+    read_inner(bytes, source.appearance.is_some())
+        .map_err(|(line, problem)| MeshError::malformed(source.name, line, problem))
 }
 
-fn read_inner(bytes: &[u8]) -> Result<PolyMesh, Failure> {
+fn read_inner(bytes: &[u8], appearance: bool) -> Result<Asset, Failure> {
     let mut reader = Reader::new(bytes);
     let header = Parser::<Skip>::new()
         .read_header(&mut reader)
@@ -53,6 +63,17 @@ fn read_inner(bytes: &[u8]) -> Result<PolyMesh, Failure> {
     let header_text = &bytes[..bytes.len() - body.rest.len()];
     let vertices = check_header(&header, header_text, body.rest.len())?;
 
+    let mut dropped = Vec::new();
+    let colors = if appearance {
+        describe(&header, &mut dropped)
+    } else {
+        None
+    };
+    let mut colors = colors.map(|alpha| Colors {
+        alpha,
+        values: Vec::with_capacity(vertices),
+        problem: None,
+    });
     let mut builder = MeshBuilder::with_capacity(vertices);
     let mut corners = Vec::new();
     for def in header.elements.values() {
@@ -62,8 +83,11 @@ fn read_inner(bytes: &[u8]) -> Result<PolyMesh, Failure> {
                 for k in 0..def.count {
                     let (line, record) = body.record(&parser, def, k)?;
                     builder
-                        .push_position(DVec3::from_array(record.0))
+                        .push_position(DVec3::from_array(record.xyz))
                         .map_err(|p| (line, p))?;
+                    if let Some(colors) = &mut colors {
+                        colors.push(k, line, record.rgba);
+                    }
                 }
             }
             Role::Faces => {
@@ -92,7 +116,173 @@ fn read_inner(bytes: &[u8]) -> Result<PolyMesh, Failure> {
             }
         }
     }
-    builder.finish().map_err(|p| (None, p))
+    let mut asset = Asset::of(builder.finish().map_err(|p| (None, p))?);
+    if let Some(colors) = colors {
+        match colors.problem {
+            None => asset.colors = Some(colors.values),
+            Some(why) => {
+                let detail = format!("vertex colours not read: {why}");
+                add_dropped(&mut dropped, Kind::VertexColors, vertices as u64, detail);
+            }
+        }
+    }
+    asset.dropped = dropped;
+    Ok(asset)
+}
+
+/// Vertex colours as they are read.
+struct Colors {
+    /// Whether the file has an alpha channel (else alpha is 1).
+    alpha: bool,
+    values: Vec<[f32; 4]>,
+    /// The first value out of 0..1, which drops them all.
+    problem: Option<String>,
+}
+
+impl Colors {
+    fn push(&mut self, vertex: usize, line: Option<usize>, rgba: [f64; 4]) {
+        if self.problem.is_some() {
+            return;
+        }
+        let rgba = if self.alpha {
+            rgba
+        } else {
+            [rgba[0], rgba[1], rgba[2], 1.0]
+        };
+        match rgba.iter().find(|v| !(0.0..=1.0).contains(*v)) {
+            None => self.values.push(rgba.map(|v| v as f32)),
+            Some(v) => {
+                let at = line.map_or(String::new(), |l| format!(" (line {l})"));
+                self.problem = Some(format!("vertex {vertex}{at} has value {v} outside 0..1"));
+            }
+        }
+    }
+}
+
+/// Names of the colour channels: red, green, blue, alpha.
+const COLOR_NAMES: [[&str; 4]; 3] = [
+    ["red", "green", "blue", "alpha"],
+    [
+        "diffuse_red",
+        "diffuse_green",
+        "diffuse_blue",
+        "diffuse_alpha",
+    ],
+    ["r", "g", "b", "a"],
+];
+
+/// The channel of a vertex colour property, if `name` is one.
+fn color_channel(name: &str) -> Option<usize> {
+    COLOR_NAMES
+        .iter()
+        .find_map(|names| names.iter().position(|&n| n == name))
+}
+
+/// Lists what the header declares beyond positions and faces into `dropped`;
+/// returns whether vertex colours are read and, if so, whether with alpha.
+fn describe(header: &Header, dropped: &mut Vec<Dropped>) -> Option<bool> {
+    let mut colors = None;
+    for comment in &header.comments {
+        if let Some(name) = comment.trim().strip_prefix("TextureFile") {
+            let detail = format!("texture {} (PLY textures are not read)", name.trim());
+            add_dropped(dropped, Kind::Textures, 1, detail);
+        }
+    }
+    for def in header.elements.values() {
+        let count = def.count as u64;
+        match role(def) {
+            Role::Vertex => {
+                let mut channels: [Option<&ScalarType>; 4] = [None; 4];
+                let mut others: Vec<(Kind, &str)> = Vec::new();
+                for p in def.properties.values() {
+                    let name = p.name.as_str();
+                    if let (Some(c), PropertyType::Scalar(t)) = (color_channel(name), &p.data_type)
+                    {
+                        channels[c] = Some(t);
+                        continue;
+                    }
+                    let kind = match name {
+                        "x" | "y" | "z" => continue,
+                        "nx" | "ny" | "nz" => Kind::Normals,
+                        "s" | "t" | "u" | "v" | "texture_u" | "texture_v" | "texture_s"
+                        | "texture_t" => Kind::TexCoords,
+                        _ => Kind::Properties,
+                    };
+                    others.push((kind, name));
+                }
+                for kind in [Kind::Normals, Kind::TexCoords, Kind::Properties] {
+                    let names: Vec<&str> = others
+                        .iter()
+                        .filter(|(k, _)| *k == kind)
+                        .map(|(_, n)| *n)
+                        .collect();
+                    if !names.is_empty() {
+                        let detail = format!("vertex {}", names.join(" "));
+                        add_dropped(dropped, kind, count, detail);
+                    }
+                }
+                let usable = |t: &&ScalarType| {
+                    matches!(
+                        t,
+                        ScalarType::UChar
+                            | ScalarType::UShort
+                            | ScalarType::Float
+                            | ScalarType::Double
+                    )
+                };
+                match channels {
+                    [None, None, None, None] => {}
+                    [Some(r), Some(g), Some(b), a]
+                        if [r, g, b].iter().all(usable) && a.as_ref().is_none_or(usable) =>
+                    {
+                        colors = Some(a.is_some());
+                    }
+                    _ => {
+                        let detail = format!(
+                            "vertex colour channels {channels:?} (red, green and blue of \
+                             uchar, ushort, float or double are read)"
+                        );
+                        add_dropped(dropped, Kind::VertexColors, count, detail);
+                    }
+                }
+            }
+            Role::Faces | Role::Strips => {
+                let mut names: Vec<&str> = Vec::new();
+                for p in def.properties.values() {
+                    let name = p.name.as_str();
+                    if is_index_list(name) {
+                        continue;
+                    }
+                    let (kind, what) = match name {
+                        _ if color_channel(name).is_some() => (Kind::FaceColors, "face colours"),
+                        "texcoord" | "texnumber" => {
+                            (Kind::TexCoords, "per-corner texture coordinates")
+                        }
+                        _ => {
+                            names.push(name);
+                            continue;
+                        }
+                    };
+                    let detail = format!("{} {what} ({name})", def.name);
+                    add_dropped(dropped, kind, count, detail);
+                }
+                if !names.is_empty() {
+                    let detail = format!("{} {}", def.name, names.join(" "));
+                    add_dropped(dropped, Kind::Properties, count, detail);
+                }
+            }
+            Role::Skip => {
+                let kind = if def.name == "edge" {
+                    Kind::Lines
+                } else {
+                    Kind::Properties
+                };
+                let detail = format!("{} elements", def.name);
+                add_dropped(dropped, kind, count, detail);
+            }
+        }
+    }
+    colors
 }
 
 fn check_index(index: i64, vertices: usize) -> Result<u32, Problem> {
@@ -354,9 +544,13 @@ impl Body<'_> {
     }
 }
 
-/// A vertex record: only the position.
+/// A vertex record: the position and the colour channels (scaled to 0..1
+/// by their type, so `uchar` 255 and `float` 1.0 are both 1).
 #[derive(Default)]
-struct VertexRecord([f64; 3]);
+struct VertexRecord {
+    xyz: [f64; 3],
+    rgba: [f64; 4],
+}
 
 impl VertexRecord {
     fn set(&mut self, name: &str, value: f64) -> PropertyAccessResult {
@@ -366,8 +560,19 @@ impl VertexRecord {
             "z" => 2,
             _ => return PropertyAccessResult::Ignored,
         };
-        self.0[axis] = value;
+        self.xyz[axis] = value;
         PropertyAccessResult::Set
+    }
+
+    /// A value that may be a position or a colour channel of `full` scale.
+    fn set_either(&mut self, name: &str, value: f64, full: f64) -> PropertyAccessResult {
+        match color_channel(name) {
+            Some(c) => {
+                self.rgba[c] = value / full;
+                PropertyAccessResult::Set
+            }
+            None => self.set(name, value),
+        }
     }
 }
 
@@ -379,13 +584,13 @@ impl PropertyAccess for VertexRecord {
         self.set(name, value.into())
     }
     fn set_uchar(&mut self, name: &str, value: u8) -> PropertyAccessResult {
-        self.set(name, value.into())
+        self.set_either(name, value.into(), 255.0)
     }
     fn set_short(&mut self, name: &str, value: i16) -> PropertyAccessResult {
         self.set(name, value.into())
     }
     fn set_ushort(&mut self, name: &str, value: u16) -> PropertyAccessResult {
-        self.set(name, value.into())
+        self.set_either(name, value.into(), 65535.0)
     }
     fn set_int(&mut self, name: &str, value: i32) -> PropertyAccessResult {
         self.set(name, value.into())
@@ -394,10 +599,10 @@ impl PropertyAccess for VertexRecord {
         self.set(name, value.into())
     }
     fn set_float(&mut self, name: &str, value: f32) -> PropertyAccessResult {
-        self.set(name, value.into())
+        self.set_either(name, value.into(), 1.0)
     }
     fn set_double(&mut self, name: &str, value: f64) -> PropertyAccessResult {
-        self.set(name, value)
+        self.set_either(name, value, 1.0)
     }
 }
 

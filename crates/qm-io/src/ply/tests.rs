@@ -2,7 +2,7 @@
 
 use super::*;
 use crate::tests::{assert_bit_exact, awkward_mesh};
-use crate::{Format, read_mesh_bytes, write_mesh_to};
+use crate::{AttributeKind as Kind, Format, read_mesh_bytes, write_mesh_to};
 
 fn read(bytes: &[u8]) -> Result<PolyMesh, MeshError> {
     read_mesh_bytes(bytes, Format::Ply, "t.ply")
@@ -382,5 +382,110 @@ fn mutated_files_never_panic() {
             }
             let _ = read_mesh_bytes(&bytes, Format::Ply, "fuzz.ply");
         }
+    }
+}
+
+fn read_asset(bytes: &[u8]) -> Asset {
+    let options = crate::AssetOptions::DEFAULT;
+    crate::read_asset_bytes(bytes, Format::Ply, "t.ply", &options).unwrap()
+}
+
+#[test]
+fn vertex_colours_of_every_type_with_and_without_alpha() {
+    let header = "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+        property uchar red\nproperty uchar green\nproperty uchar blue\nproperty uchar alpha\n\
+        property float nx\nproperty float ny\nproperty float nz\nproperty float quality\n\
+        element face 1\nproperty list uchar int vertex_indices\nproperty uchar red\n\
+        element edge 2\nproperty int vertex1\nproperty int vertex2\n";
+    let body = "0 0 0 255 0 0 255 0 0 1 7\n1 0 0 0 255 0 128 0 0 1 7\n0 1 0 0 0 255 0 0 0 1 7\n\
+        3 0 1 2 9\n0 1\n1 2\n";
+    let asset = read_asset(&ply("ascii", header, body.as_bytes()));
+    let colors = asset.colors.as_ref().unwrap();
+    assert_eq!(colors[0], [1.0, 0.0, 0.0, 1.0]);
+    assert_eq!(colors[1], [0.0, 1.0, 0.0, 128.0 / 255.0]);
+    assert_eq!(colors[2][3], 0.0);
+    let kinds: Vec<Kind> = asset.dropped.iter().map(|d| d.kind).collect();
+    assert_eq!(
+        kinds,
+        [
+            Kind::Normals,
+            Kind::Properties,
+            Kind::FaceColors,
+            Kind::Lines
+        ]
+    );
+    assert_eq!(asset.dropped[3].count, 2);
+    let held: Vec<(Kind, u64)> = asset.held().iter().map(|d| (d.kind, d.count)).collect();
+    assert_eq!(held, [(Kind::VertexColors, 3), (Kind::VertexAlpha, 2)]);
+    assert_eq!(
+        read(&ply("ascii", header, body.as_bytes())).unwrap(),
+        asset.mesh
+    );
+
+    // Binary, float and ushort channels, diffuse_ names.
+    for (kind, write) in [("float", 0), ("ushort", 1)] {
+        let header = format!(
+            "element vertex 3\nproperty double x\nproperty double y\nproperty double z\n\
+             property {kind} diffuse_red\nproperty {kind} diffuse_green\nproperty {kind} diffuse_blue\n\
+             element face 1\nproperty list uchar int vertex_indices\n"
+        );
+        let mut body = Body {
+            bytes: Vec::new(),
+            big: true,
+        };
+        for k in 0..3 {
+            body.f64(k as f64).f64(f64::from(k == 1)).f64(0.0);
+            for c in 0..3 {
+                let on = c == k;
+                match write {
+                    0 => body.f32(if on { 0.5 } else { 0.0 }),
+                    _ => body.put(&(if on { 65535u16 } else { 0 }).to_le_bytes()),
+                };
+            }
+        }
+        body.u8(3).i32(0).i32(1).i32(2);
+        let asset = read_asset(&ply("binary_big_endian", &header, &body.bytes));
+        let colors = asset.colors.unwrap();
+        let full = if write == 0 { 0.5 } else { 1.0 };
+        assert_eq!(colors[1], [0.0, full, 0.0, 1.0], "{kind}");
+        assert!(asset.dropped.is_empty(), "{:?}", asset.dropped);
+    }
+}
+
+#[test]
+fn unusable_colours_are_reported_not_fatal() {
+    let base = "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n";
+    let face = "element face 1\nproperty list uchar int vertex_indices\n";
+    let cases = [
+        (
+            "property float red\nproperty float green\nproperty float blue\n",
+            "0 0 0 1 1 1\n1 0 0 255 0 0\n0 1 0 0 0 0\n",
+            "vertex 1 (line",
+        ),
+        (
+            "property int red\nproperty int green\nproperty int blue\n",
+            "0 0 0 1 1 1\n1 0 0 1 0 0\n0 1 0 0 0 0\n",
+            "channels",
+        ),
+        (
+            "property uchar red\nproperty uchar green\n",
+            "0 0 0 1 1\n1 0 0 1 0\n0 1 0 0 0\n",
+            "channels",
+        ),
+    ];
+    for (props, vertices, fragment) in cases {
+        let bytes = ply(
+            "ascii",
+            &format!("{base}{props}{face}"),
+            format!("{vertices}3 0 1 2\n").as_bytes(),
+        );
+        let asset = read_asset(&bytes);
+        assert!(asset.colors.is_none());
+        assert_eq!(asset.dropped[0].kind, Kind::VertexColors);
+        assert!(
+            asset.dropped[0].detail.contains(fragment),
+            "{:?}",
+            asset.dropped
+        );
     }
 }
