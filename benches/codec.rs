@@ -88,7 +88,7 @@ fn codec(c: &mut Criterion) {
     });
     group.bench_function("resuming", |b| {
         b.iter(|| {
-            let decoder = qm::Decoder::new(&full.bytes, &qm::Limits::DEFAULT).unwrap();
+            let mut decoder = qm::Decoder::new(&full.bytes, &qm::Limits::DEFAULT).unwrap();
             let start = decoder.stream_start();
             let mut values = Vec::new();
             for &cut in &cuts {
