@@ -9,9 +9,8 @@
 //! them. The mesh of the last refinement is a [`LevelMesh`]: vertices,
 //! quads and triangles of that level, with the decoder's error estimate.
 //! Index buffers depend only on the layout and are built once per level
-//! (again when the layout grows). Every
-//! binding (the WebAssembly decoder, the command line, Python) wraps this
-//! one type.
+//! (again when the layout grows). Every binding (the WebAssembly decoder,
+//! the command line, Python) wraps this one type.
 
 use qm_lift::Coord;
 use qm_lift::glam::DVec3;
@@ -184,7 +183,7 @@ impl StreamDecoder {
 
     /// Vertices of the mesh at `level` (at most the finest; 0 before the
     /// base mesh).
-    pub fn vertices_at(&mut self, level: u32) -> usize {
+    pub fn vertices_at(&self, level: u32) -> usize {
         self.decoder
             .as_ref()
             .map_or(0, |d| d.vertices_at(level) as usize)

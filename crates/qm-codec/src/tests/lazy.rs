@@ -3,8 +3,8 @@
 //! estimates, bit for bit, for every cut, option and way of feeding it.
 
 use qm_lift::glam::DVec3;
-use qm_lift::synthetic::{bumpy_sphere, bumpy_split_octahedron};
-use qm_lift::{BaseMesh, Layout, SemiRegularMesh};
+use qm_lift::synthetic::{bumpy_sphere, bumpy_split_octahedron, refined};
+use qm_lift::{BaseMesh, SemiRegularMesh};
 
 use crate::container::Limits;
 use crate::decode::{DecodeOptions, Decoder, Decompressed, decompress, decompress_with};
@@ -12,33 +12,24 @@ use crate::encode::{EncodeOptions, compress};
 use crate::levels::LevelChoice;
 use crate::stream::StreamDecoder;
 
-/// `base` with corners at `corners`, refined `level` times, each face
-/// bilinear and moved by a smooth relief of two scales.
+/// The quads `faces` on the points `corners`, refined `level` times and
+/// moved by a smooth relief of two scales.
 fn relief((corners, faces): (Vec<DVec3>, Vec<[u32; 4]>), level: u32) -> SemiRegularMesh {
     let base = BaseMesh::new(corners.len() as u32, faces).unwrap();
-    let layout = Layout::new(base, level).unwrap();
-    let n = layout.n();
-    let mut positions = vec![DVec3::ZERO; layout.sample_count()];
-    for (f, face) in layout.base().faces().iter().enumerate() {
-        let c = face.map(|v| corners[v as usize]);
-        for j in 0..=n {
-            for i in 0..=n {
-                let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
-                let p = c[0] * (1.0 - u) * (1.0 - v)
-                    + c[1] * u * (1.0 - v)
-                    + c[2] * u * v
-                    + c[3] * (1.0 - u) * v;
-                let wave = DVec3::new(
-                    (3.0 * p.y + 1.0).sin(),
-                    (5.0 * p.z + 2.0).sin(),
-                    (4.0 * p.x + 3.0).sin(),
-                );
-                let ripple = 0.01 * (19.0 * p.x + 23.0 * p.y + 7.0 * p.z).sin();
-                positions[layout.sample(f, i, j) as usize] = p + 0.05 * wave + DVec3::Z * ripple;
-            }
-        }
-    }
-    SemiRegularMesh::new(layout, positions).unwrap()
+    refined(
+        base,
+        |v| corners[v as usize],
+        level,
+        |p| {
+            let wave = DVec3::new(
+                (3.0 * p.y + 1.0).sin(),
+                (5.0 * p.z + 2.0).sin(),
+                (4.0 * p.x + 3.0).sin(),
+            );
+            let ripple = 0.01 * (19.0 * p.x + 23.0 * p.y + 7.0 * p.z).sin();
+            p + 0.05 * wave + DVec3::Z * ripple
+        },
+    )
 }
 
 /// A closed cube-based sphere, a grid with a boundary and a hole, a torus
