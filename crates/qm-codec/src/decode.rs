@@ -472,7 +472,7 @@ impl Decoder {
         for j in 0..reach {
             levels::level_grid(&self.layout, j, values, &mut grid);
             self.synthesize(values, j, j + 1, top);
-            let gap = levels::step_gap(&self.layout, j, &grid, values);
+            let gap = levels::step_gap(&self.layout, j, &grid, values, j < top);
             steps.push(gap.model_rms(self.header.step));
         }
         let estimate = Estimate {
@@ -487,8 +487,14 @@ impl Decoder {
         };
         let level = cap(wanted);
         if level < reach {
+            // The details again, and the level's samples as synthesized:
+            // the last grid taken is level `reach - 1`'s.
             self.fill(&decoded, values);
-            self.synthesize(values, 0, level, top);
+            if level + 1 == reach {
+                levels::put_level_grid(&self.layout, level, &grid, values);
+            } else {
+                self.synthesize(values, 0, level, top);
+            }
         } else if level > reach {
             // Finer than the layout built: the same points, numbered anew;
             // the finer samples' details are zero (`reach > top`).

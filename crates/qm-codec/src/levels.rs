@@ -284,10 +284,34 @@ pub(crate) fn level_grid(layout: &Layout, level: u32, values: &[Coord], out: &mu
     }
 }
 
+/// Writes a [`level_grid`] back into `values`: the level's samples as
+/// they were when it was taken.
+pub(crate) fn put_level_grid(layout: &Layout, level: u32, grid: &[Coord], values: &mut [Coord]) {
+    let n = layout.n();
+    let s = 1usize << (layout.level() - level);
+    let mut grid = grid.iter();
+    for f in 0..layout.face_count() {
+        for j in (0..=n).step_by(s) {
+            for i in (0..=n).step_by(s) {
+                values[layout.sample(f, i, j) as usize] = *grid.next().expect("a level grid");
+            }
+        }
+    }
+}
+
 /// The normal distances of level `level + 1`'s samples (in `fine`, after
 /// synthesis to that level) from level `level`'s bilinear quads (`coarse`,
-/// a [`level_grid`]), in quantized units.
-pub(crate) fn step_gap(layout: &Layout, level: u32, coarse: &[Coord], fine: &[Coord]) -> GapSum {
+/// a [`level_grid`]), in quantized units. `moved` says whether the
+/// synthesis moved level `level`'s own samples (the update by the details
+/// of level `level + 1`); when not, the quads' corners are exactly on them
+/// and add nothing but their weight.
+pub(crate) fn step_gap(
+    layout: &Layout,
+    level: u32,
+    coarse: &[Coord],
+    fine: &[Coord],
+    moved: bool,
+) -> GapSum {
     let s = 1usize << (layout.level() - level);
     let h = s / 2;
     let m = 1usize << level;
@@ -340,7 +364,14 @@ pub(crate) fn step_gap(layout: &Layout, level: u32, coarse: &[Coord], fine: &[Co
                     half(c[0], c[3]),
                     centre,
                 ];
-                for ((di, dj, w), flat) in POINTS.into_iter().zip(flats) {
+                let first = if moved {
+                    0
+                } else {
+                    // The corners' four quarters (weights are exact sums).
+                    total.weight += 1.0;
+                    4
+                };
+                for ((di, dj, w), flat) in POINTS.into_iter().zip(flats).skip(first) {
                     let id = layout.sample(f, a * s + di * h, b * s + dj * h);
                     let off = dot(sub(at(fine[id as usize]), flat), normal);
                     total.sum += w * off * off;
