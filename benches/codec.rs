@@ -1,7 +1,8 @@
 //! Throughput of the codec on a semi-regular mesh of 1.57M samples (a cube
 //! refined 9 times): lifting forward + inverse, the bit-plane coder, and
-//! whole-file decoding of the complete stream and of prefixes, and a stream
-//! shown after each of 16 chunks, decoded from scratch or resumed.
+//! whole-file decoding of the complete stream and of prefixes (from a
+//! coarse preview on), and a stream shown after each of 16 chunks, decoded
+//! from scratch or resumed.
 //!
 //! Run with `cargo bench --bench codec`; figures are in coefficients
 //! (samples) per second.
@@ -58,8 +59,11 @@ fn codec(c: &mut Criterion) {
     group.bench_function("decode/lossless", |b| {
         b.iter(|| qm::codec::decompress(&full.bytes, &DecodeOptions::default()).unwrap())
     });
-    // A prefix of about 1 byte per 20 samples: a typical streaming preview.
+    // A prefix of about 1 byte per 20 samples: a typical streaming preview;
+    // 1 per 400 is a first coarse one, whose decoder builds only the
+    // levels the bytes reach (docs/scale.md, "Decoding a prefix").
     for (name, bytes) in [
+        ("decode/prefix-1:400", samples as usize / 400),
         ("decode/prefix-1:20", samples as usize / 20),
         ("decode/prefix-1:4", samples as usize / 4),
     ] {
@@ -88,7 +92,7 @@ fn codec(c: &mut Criterion) {
     });
     group.bench_function("resuming", |b| {
         b.iter(|| {
-            let decoder = qm::Decoder::new(&full.bytes, &qm::Limits::DEFAULT).unwrap();
+            let mut decoder = qm::Decoder::new(&full.bytes, &qm::Limits::DEFAULT).unwrap();
             let start = decoder.stream_start();
             let mut values = Vec::new();
             for &cut in &cuts {

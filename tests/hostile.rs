@@ -425,7 +425,11 @@ proptest! {
             let cut = start + (len - start) * k / 20;
             let decoded = qm::codec::decompress(&compressed.bytes[..cut], &qm::DecodeOptions::default());
             prop_assert!(decoded.is_ok(), "cut {} of {}: {:?}", cut, len, decoded.err());
-            prop_assert_eq!(decoded.unwrap().values.len(), compressed.quantized.len());
+            // One value per sample of the levels the decoder built, which
+            // hold the level it chose.
+            let decoded = decoded.unwrap();
+            prop_assert_eq!(decoded.values.len(), decoded.layout.sample_count());
+            prop_assert!(decoded.level <= decoded.layout.level() && decoded.layout.level() <= level);
         }
     }
 }

@@ -666,7 +666,7 @@ fn decompress(
             raw.header.passes,
             output.display(),
             raw.level,
-            raw.layout.level(),
+            raw.header.level,
             decoded.mesh.positions.len(),
             decoded.mesh.face_count(),
             decoded.error_estimate(),

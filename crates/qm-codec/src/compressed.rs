@@ -47,7 +47,7 @@ pub(crate) fn measure_cuts(
         .map(|run| (decoder.clone(), run))
         .collect();
     Ok((runs.into_par_iter())
-        .flat_map_iter(|(decoder, run)| {
+        .flat_map_iter(|(mut decoder, run)| {
             let mut values = Vec::new();
             run.iter()
                 .map(|&cut| {

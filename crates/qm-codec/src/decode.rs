@@ -10,6 +10,18 @@
 //! back, and the inverse lifting rebuilds the level the options choose
 //! ([`crate::levels`]). A cut inside one of the header's holds decodes as
 //! the hold's start.
+//!
+//! **Only the levels a prefix reaches.** A short prefix holds coefficients
+//! of the coarse levels alone: the bit-plane walk reaches a level only
+//! through an open subtree, which opens only over a significant
+//! coefficient (`qm_ezw`'s module `walk`). So the decoder builds its trees
+//! ([`qm_ezw::ZeroTree::partial`]) and its sample layout level by level as
+//! the stream and the level choice reach them, and numbers the samples as
+//! the finest level built does: a preview costs time and memory in
+//! proportion to its own size, not the file's finest level
+//! (docs/decisions/031-decode-only-the-levels-reached.md). The result is
+//! the same, bit for bit, as with every level built: the lifting of a
+//! level reads only that level's and coarser samples.
 
 use qm_ezw::ZeroTree;
 use qm_lift::glam::DVec3;
@@ -113,10 +125,13 @@ impl DecodeOptions {
 /// A decoded mesh.
 #[derive(Clone, Debug)]
 pub struct Decompressed {
-    /// The sample layout (finest level).
+    /// The sample layout of the levels the decoder built: at least
+    /// [`Self::level`], at most the file's finest ([`Header::level`]); the
+    /// finest whenever the mesh is.
     pub layout: Layout,
-    /// Reconstructed quantized values; at [`Self::level`] below the finest,
-    /// only the samples of that level hold positions.
+    /// Reconstructed quantized values, one per sample of [`Self::layout`];
+    /// at [`Self::level`] below the layout's, only the samples of that
+    /// level hold positions.
     pub values: Vec<Coord>,
     /// The quantizer of the header.
     pub quantizer: Quantizer,
@@ -146,18 +161,8 @@ impl Decompressed {
     /// The mesh at the decoded level: positions of that level's samples and
     /// its quads, indices into those positions.
     pub fn level_mesh(&self) -> (Vec<DVec3>, Vec<[u32; 4]>) {
-        let samples = self.layout.samples_at(self.level);
-        let mut index = vec![u32::MAX; self.layout.sample_count()];
-        for (i, &s) in samples.iter().enumerate() {
-            index[s as usize] = i as u32;
-        }
+        let (samples, quads) = level_index(&self.layout, self.level);
         let positions = samples.iter().map(|&s| self.position(s as usize)).collect();
-        let quads = self
-            .layout
-            .quads(self.level)
-            .iter()
-            .map(|q| q.map(|s| index[s as usize]))
-            .collect();
         (positions, quads)
     }
 
@@ -166,12 +171,27 @@ impl Decompressed {
         self.quantizer.dequantize(self.values[s].map(f64::from))
     }
 
-    /// The finest-level semi-regular mesh (only meaningful when decoded at
-    /// the finest level).
+    /// The semi-regular mesh of [`Self::layout`] (only meaningful when
+    /// decoded at its level, as at the finest level).
     pub fn to_semi_regular(&self) -> Result<SemiRegularMesh> {
         let positions = (0..self.values.len()).map(|s| self.position(s)).collect();
         Ok(SemiRegularMesh::new(self.layout.clone(), positions)?)
     }
+}
+
+/// The samples of `layout` (a layout of level `level` or finer) that exist
+/// at `level`, in increasing id order, and that level's quads as indices
+/// into them, counter-clockwise. A sample's index is its id in a level
+/// `level` layout ([`qm_lift::Numbering::refine`] keeps the order), so
+/// nothing the size of the finer layout is made.
+pub(crate) fn level_index(layout: &Layout, level: u32) -> (Vec<u32>, Vec<[u32; 4]>) {
+    let level = level.min(layout.level());
+    let to = layout.numbering();
+    let from = to.at_level(level);
+    let count = layout.base().sample_count(level) as u32;
+    let samples = (0..count).map(|s| from.refine(s, to)).collect();
+    let own = Layout::new(layout.base().clone(), level).expect("coarser than a layout");
+    (samples, own.quads(level))
 }
 
 /// Decompresses `.qm` bytes, which may be cut anywhere after the base mesh.
@@ -179,7 +199,20 @@ pub fn decompress(bytes: &[u8], options: &DecodeOptions) -> Result<Decompressed>
     let bytes = &bytes[..options
         .max_bytes
         .map_or(bytes.len(), |m| m.min(bytes.len()))];
-    let decoder = Decoder::new(bytes, &options.limits)?;
+    Ok(decompress_with(
+        Decoder::new(bytes, &options.limits)?,
+        bytes,
+        options,
+    ))
+}
+
+/// [`decompress`] of `bytes` (cut to the budget already) by `decoder`,
+/// made from them.
+pub(crate) fn decompress_with(
+    mut decoder: Decoder,
+    bytes: &[u8],
+    options: &DecodeOptions,
+) -> Decompressed {
     let mut values = Vec::new();
     let (status, estimate) = decoder.decode_choosing(
         &bytes[decoder.stream_start()..],
@@ -196,7 +229,7 @@ pub fn decompress(bytes: &[u8], options: &DecodeOptions) -> Result<Decompressed>
         ..
     } = decoder;
     let stream_bytes = bytes.len() - header_bytes - base_bytes;
-    Ok(Decompressed {
+    Decompressed {
         decoded_stream_bytes: status.decoded_bytes,
         stream_bytes,
         values,
@@ -209,20 +242,23 @@ pub fn decompress(bytes: &[u8], options: &DecodeOptions) -> Result<Decompressed>
         base_bytes,
         layout,
         estimate,
-    })
+    }
 }
 
 /// A parsed header and base mesh, ready to decode stream prefixes again and
-/// again: a viewer that receives a file in pieces builds the layout and the
-/// trees once and decodes each longer prefix with [`Decoder::decode_into`].
+/// again: a viewer that receives a file in pieces keeps one and decodes
+/// each longer prefix with [`Decoder::decode_into`].
 ///
-/// It also keeps the bit-plane decoder's state at the last complete pass
-/// (a [`qm_ezw::Checkpoint`]), so a longer cut of the same stream resumes
-/// there instead of decoding every pass again. The result never depends on
-/// it: any stream, cut or pass limit gives what [`decompress`] gives.
+/// It builds the trees and the layout only as far as the prefixes so far
+/// reached (see the module docs), and keeps them for the next, longer
+/// prefix; it also keeps the bit-plane decoder's state at the last
+/// complete pass (a [`qm_ezw::Checkpoint`]), so a longer cut of the same
+/// stream resumes there instead of decoding every pass again. The result
+/// never depends on either: any stream, cut or pass limit gives what
+/// [`decompress`] gives.
 #[derive(Clone, Debug)]
 pub struct Decoder {
-    checkpoint: std::cell::RefCell<Option<qm_ezw::Checkpoint>>,
+    checkpoint: Option<qm_ezw::Checkpoint>,
     header: Header,
     /// The base section's values: high parts when the stream holds low bits
     /// (with the split implied, those of the corners, and zeros).
@@ -231,7 +267,9 @@ pub struct Decoder {
     /// triangles, whose corners alone have values, the other base values
     /// being made from them.
     split: Option<Vec<[u32; 3]>>,
+    /// The layout of the levels built (at least as fine as the tree's).
     layout: Layout,
+    /// The trees of the levels the stream reached ([`ZeroTree::partial`]).
     tree: ZeroTree,
     quantizer: Quantizer,
     header_bytes: usize,
@@ -261,8 +299,9 @@ impl Decoder {
         let c = container::read(bytes, limits)?;
         let h = c.header;
         let base = BaseMesh::new(h.base_vertices, c.base.faces)?;
-        let layout = Layout::new(base, h.level as u32)?;
-        let tree = ZeroTree::new(&layout);
+        Layout::check(&base, h.level as u32)?;
+        let tree = ZeroTree::partial(&base, h.level as u32, 1);
+        let layout = Layout::new(base, 0)?;
         let quantizer = Quantizer {
             bits: h.bits as u32,
             origin: h.origin,
@@ -274,7 +313,7 @@ impl Decoder {
             .then(|| basecode::split_triangles_of(layout.base().faces(), h.base_vertices as usize))
             .flatten();
         Ok(Decoder {
-            checkpoint: std::cell::RefCell::new(None),
+            checkpoint: None,
             header: h,
             split,
             base_values: c.base.values,
@@ -296,9 +335,17 @@ impl Decoder {
         &self.header
     }
 
-    /// The sample layout (finest level).
+    /// The sample layout of the levels built so far: as fine as the
+    /// levels the decodes so far reached or reconstructed (0 before the
+    /// first), at most [`Self::finest_level`]. The values a decode writes
+    /// are numbered as its samples.
     pub fn layout(&self) -> &Layout {
         &self.layout
+    }
+
+    /// The finest subdivision level of the file.
+    pub fn finest_level(&self) -> u32 {
+        self.header.level as u32
     }
 
     /// The quantizer of the header.
@@ -309,10 +356,11 @@ impl Decoder {
     /// Decodes `stream` (the bytes after [`Self::stream_start`], cut
     /// anywhere; a cut inside a hold decodes as the hold's start) up to
     /// `passes` passes and reconstructs `level` (default: the finest) into
-    /// `values`, one quantized value per sample id; at a level below the
-    /// finest only that level's samples hold positions.
+    /// `values`, one quantized value per sample of [`Self::layout`] (which
+    /// then has at least `level`); at a level below the layout's only that
+    /// level's samples hold positions.
     pub fn decode_into(
-        &self,
+        &mut self,
         stream: &[u8],
         passes: Option<u32>,
         level: Option<u32>,
@@ -323,7 +371,7 @@ impl Decoder {
 
     /// [`Self::decode_into`], keeping a checkpoint for the next call or not.
     fn decode_with(
-        &self,
+        &mut self,
         stream: &[u8],
         passes: Option<u32>,
         level: Option<u32>,
@@ -331,9 +379,12 @@ impl Decoder {
         resume: bool,
     ) -> DecodeStatus {
         let (decoded, used) = self.coefficients(stream, passes, resume);
+        let finest = self.finest_level();
+        let level = level.map_or(finest, |l| l.min(finest));
+        self.build_layout(level);
         self.fill(&decoded, values);
-        let level = level.map_or(self.layout.level(), |l| l.min(self.layout.level()));
-        self.lifting().inverse_to(values, level);
+        let top = self.top_level(&decoded);
+        self.synthesize(values, 0, level, top);
         DecodeStatus {
             level,
             passes: decoded.passes,
@@ -347,7 +398,7 @@ impl Decoder {
     /// caller's), into `values` at the level chosen; the decoder's estimate
     /// of the error of each level (see [`crate::levels`]).
     pub fn decode_choosing(
-        &self,
+        &mut self,
         stream: &[u8],
         options: &DecodeOptions,
         values: &mut Vec<Coord>,
@@ -360,17 +411,16 @@ impl Decoder {
             Some(goal) => self.coefficients_to(stream, limit, goal, resume),
             None => self.coefficients(stream, Some(limit), resume),
         };
-        self.fill(&decoded, values);
-        let big_l = self.layout.level();
-        let diagonal = levels::diagonal(
-            values[..self.layout.base().vertex_count() as usize]
-                .iter()
-                .copied(),
-            self.header.step,
+        let big_l = self.finest_level();
+        let faces = self.layout.face_count();
+        let remaining = levels::remaining(
+            &self.header,
+            self.layout.base(),
+            self.tree.levels(),
+            &decoded,
+            self.base_count(),
         );
-        let remaining = levels::remaining(&self.header, &self.tree, &decoded, self.base_count());
         let complete = !decoded.truncated && decoded.passes == self.header.passes as u32;
-        let lifting = self.lifting();
         let status = |level| DecodeStatus {
             level,
             passes: decoded.passes,
@@ -380,7 +430,7 @@ impl Decoder {
         let cap = |level: u32| match options.max_triangles {
             Some(max) => (0..=level)
                 .rev()
-                .find(|&l| self.triangles_at(l) <= max)
+                .find(|&l| triangles(faces, l) <= max)
                 .unwrap_or(0),
             None => level,
         };
@@ -389,9 +439,27 @@ impl Decoder {
             gaps[big_l as usize] = 0.0;
             gaps
         };
-        if options.level == LevelChoice::Finest {
+        // Levels past the finest one holding a significant coefficient
+        // add only the subdivision's smoothing: lift one level past it (two
+        // at least: on whole base faces the stencils reach irregular
+        // vertices everywhere and fall back to linear, so the step from
+        // level 0 to 1 has none to measure).
+        let top = self.top_level(&decoded);
+        let reach = (top + 1).max(2).min(big_l);
+        // The layout as far as the levels lifted: to the output level, or
+        // to the steps measured before the level is chosen.
+        let finest = options.level == LevelChoice::Finest;
+        self.build_layout(if finest { cap(big_l) } else { reach });
+        self.fill(&decoded, values);
+        let diagonal = levels::diagonal(
+            values[..self.layout.base().vertex_count() as usize]
+                .iter()
+                .copied(),
+            self.header.step,
+        );
+        if finest {
             let level = cap(big_l);
-            lifting.inverse_to(values, level);
+            self.synthesize(values, 0, level, top);
             let estimate = Estimate {
                 remaining,
                 gaps: unknown(),
@@ -399,25 +467,12 @@ impl Decoder {
             };
             return (status(level), estimate);
         }
-        // Levels past the finest one holding a significant coefficient
-        // add only the subdivision's smoothing: lift one level past it (two
-        // at least: on whole base faces the stencils reach irregular
-        // vertices everywhere and fall back to linear, so the step from
-        // level 0 to 1 has none to measure).
-        let levels = self.tree.levels();
-        let top = decoded
-            .nonzero
-            .iter()
-            .map(|e| levels[e.node as usize] as u32)
-            .max()
-            .unwrap_or(0);
-        let reach = (top + 1).max(2).min(big_l);
         let mut steps = Vec::with_capacity(reach as usize);
         let mut grid = Vec::new();
         for j in 0..reach {
             levels::level_grid(&self.layout, j, values, &mut grid);
-            lifting.inverse_levels(values, j, j + 1);
-            let gap = levels::step_gap(&self.layout, j, &grid, values);
+            self.synthesize(values, j, j + 1, top);
+            let gap = levels::step_gap(&self.layout, j, &grid, values, j < top);
             steps.push(gap.model_rms(self.header.step));
         }
         let estimate = Estimate {
@@ -432,18 +487,85 @@ impl Decoder {
         };
         let level = cap(wanted);
         if level < reach {
+            // The details again, and the level's samples as synthesized:
+            // the last grid taken is level `reach - 1`'s.
             self.fill(&decoded, values);
-            lifting.inverse_to(values, level);
-        } else {
-            lifting.inverse_levels(values, reach, level);
+            if level + 1 == reach {
+                levels::put_level_grid(&self.layout, level, &grid, values);
+            } else {
+                self.synthesize(values, 0, level, top);
+            }
+        } else if level > reach {
+            // Finer than the layout built: the same points, numbered anew;
+            // the finer samples' details are zero (`reach > top`).
+            let coarse = self.layout.numbering();
+            self.build_layout(level);
+            let fine = self.layout.numbering();
+            if fine != coarse {
+                let mut refined = vec![[0; 3]; self.layout.sample_count()];
+                for (s, &v) in values.iter().enumerate() {
+                    refined[coarse.refine(s as u32, fine) as usize] = v;
+                }
+                *values = refined;
+            }
+            self.synthesize(values, reach, level, top);
         }
         (status(level), estimate)
     }
 
-    /// Triangles of the mesh at `level`, two per quad.
+    /// Makes the layout reach `level` and the tree's levels (the layout
+    /// only grows).
+    fn build_layout(&mut self, level: u32) {
+        let level = level.max(self.tree.depth());
+        if level > self.layout.level() {
+            let base = self.layout.base().clone();
+            self.layout = Layout::new(base, level).expect("checked by Decoder::new");
+        }
+    }
+
+    /// Builds every level before decoding, as the decoder did before it
+    /// built only those reached: the reference of the tests that it
+    /// changes nothing.
+    #[cfg(test)]
+    pub(crate) fn build_every_level(&mut self) {
+        while !self.tree.is_complete() {
+            self.tree.grow();
+        }
+        self.build_layout(self.finest_level());
+    }
+
+    /// The finest level with a coefficient that is not zero (0 for none).
+    fn top_level(&self, decoded: &qm_ezw::Decoded) -> u32 {
+        let levels = self.tree.levels();
+        (decoded.nonzero.iter())
+            .map(|e| levels[e.node as usize] as u32)
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// The inverse lifting of `values` from level `from` to `to`. The
+    /// levels above `top` have no details: their update and their frames
+    /// turn zeros, so the prediction alone makes them, at less cost (the
+    /// same values).
+    fn synthesize(&self, values: &mut [Coord], from: u32, to: u32, top: u32) {
+        let lifting = self.lifting();
+        let detailed = to.min(top.max(from));
+        lifting.inverse_levels(values, from, detailed);
+        for level in detailed + 1..=to {
+            lifting.predict(level, values);
+        }
+    }
+
+    /// Vertices of the mesh at `level` (at most the finest), built or not.
+    pub fn vertices_at(&self, level: u32) -> u64 {
+        self.layout
+            .base()
+            .sample_count(level.min(self.finest_level()))
+    }
+
+    /// Triangles of the mesh at `level` (at most the finest), two per quad.
     pub fn triangles_at(&self, level: u32) -> u64 {
-        let level = level.min(self.layout.level());
-        2 * self.layout.face_count() as u64 * (1u64 << (2 * level))
+        triangles(self.layout.face_count(), level.min(self.finest_level()))
     }
 
     /// How many base vertices have their low bits in the stream.
@@ -463,7 +585,7 @@ impl Decoder {
     /// The stream's coefficients up to `passes` passes, and how many of
     /// the stream's bytes they used.
     fn coefficients(
-        &self,
+        &mut self,
         stream: &[u8],
         passes: Option<u32>,
         resume: bool,
@@ -474,11 +596,11 @@ impl Decoder {
         let decoded = if resume {
             let from = self.checkpoint.take();
             let (decoded, checkpoint) =
-                qm_ezw::decode_resuming(&self.tree, params, stream, passes, from);
-            self.checkpoint.replace(checkpoint);
+                qm_ezw::decode_resuming(&mut self.tree, params, stream, passes, from);
+            self.checkpoint = checkpoint;
             decoded
         } else {
-            qm_ezw::decode(&self.tree, params, stream, passes)
+            qm_ezw::decode(&mut self.tree, params, stream, passes)
         };
         let used = if decoded.truncated {
             stream.len()
@@ -492,7 +614,7 @@ impl Decoder {
     /// estimated remaining error is at most `goal` (or of everything, if
     /// none is), pass by pass from the checkpoints.
     fn coefficients_to(
-        &self,
+        &mut self,
         stream: &[u8],
         limit: u32,
         goal: f64,
@@ -504,8 +626,14 @@ impl Decoder {
             let (decoded, used) = self.coefficients(stream, Some(passes), resume);
             // A goal of 0 is the lossless mesh: the estimate reaches 0 on
             // the last passes' tangential bits, which it does not weigh.
-            let met =
-                goal > 0.0 && levels::remaining(&self.header, &self.tree, &decoded, base) <= goal;
+            let met = goal > 0.0
+                && levels::remaining(
+                    &self.header,
+                    self.layout.base(),
+                    self.tree.levels(),
+                    &decoded,
+                    base,
+                ) <= goal;
             if met || decoded.truncated || passes >= limit {
                 return (decoded, used);
             }
@@ -514,7 +642,8 @@ impl Decoder {
     }
 
     /// Base values, their low bits and the split base's derived values,
-    /// then the coefficients at their samples.
+    /// then the coefficients at their samples, numbered as the layout's
+    /// (which is at least as fine as the tree's).
     fn fill(&self, decoded: &qm_ezw::Decoded, values: &mut Vec<Coord>) {
         let k = self.header.stream_params().base_bits;
         values.clear();
@@ -531,6 +660,20 @@ impl Decoder {
             let values = &mut values[..base.vertex_count() as usize];
             basecode::snap_split(base.faces(), triangles, values, i64::MAX);
         }
-        decoded.scatter(self.tree.samples(), values);
+        let (from, to) = (self.tree.numbering(), self.layout.numbering());
+        if from == to {
+            decoded.scatter(self.tree.samples(), values);
+        } else {
+            let samples = self.tree.samples();
+            for e in &decoded.nonzero {
+                let s = from.refine(samples[e.node as usize], to);
+                values[s as usize][e.coord as usize] = e.value;
+            }
+        }
     }
+}
+
+/// Triangles of the mesh of `faces` base quads at `level`, two per quad.
+fn triangles(faces: usize, level: u32) -> u64 {
+    2 * faces as u64 * (1u64 << (2 * level))
 }

@@ -48,8 +48,8 @@
 //! `gaps[l] <= remaining sqrt(10^(tol / 10) - 1)`; the complete stream
 //! decodes at the finest level.
 
-use qm_ezw::{Decoded, ZeroTree};
-use qm_lift::{Coord, Layout};
+use qm_ezw::Decoded;
+use qm_lift::{BaseMesh, Coord, Layout};
 
 use crate::container::Header;
 
@@ -148,7 +148,15 @@ impl GapSum {
 /// The estimated RMS distance, in quantized units squared per finest
 /// sample, that the unknown parts of the coefficients and base values of
 /// `decoded` leave (see the module docs), times the quantization step.
-pub(crate) fn remaining(header: &Header, tree: &ZeroTree, decoded: &Decoded, base: u32) -> f64 {
+/// `levels` are those of the decoded forest's nodes; `base_mesh` counts
+/// every level's coefficients, built or not.
+pub(crate) fn remaining(
+    header: &Header,
+    base_mesh: &BaseMesh,
+    levels: &[u8],
+    decoded: &Decoded,
+    base: u32,
+) -> f64 {
     let big_l = header.level as usize;
     let plane = header.planes as i32 - decoded.passes as i32;
     let weighting = header.stream_params().weighting;
@@ -157,7 +165,6 @@ pub(crate) fn remaining(header: &Header, tree: &ZeroTree, decoded: &Decoded, bas
     // their squares.
     let mut significant = vec![[0u64; 3]; big_l + 1];
     let mut squares = vec![[0f64; 3]; big_l + 1];
-    let levels = tree.levels();
     for e in &decoded.nonzero {
         let (l, c) = (levels[e.node as usize] as usize, e.coord as usize);
         significant[l][c] += 1;
@@ -177,7 +184,8 @@ pub(crate) fn remaining(header: &Header, tree: &ZeroTree, decoded: &Decoded, bas
         // Mean square of the coarser level's coordinates, as estimated.
         let mut coarser: Option<f64> = None;
         for j in 1..=big_l {
-            let count = tree.level_range(j as u32).len() as f64;
+            let count =
+                (base_mesh.sample_count(j as u32) - base_mesh.sample_count(j as u32 - 1)) as f64;
             let finished = decoded.truncated && j as u32 <= progress.levels;
             let fresh = match progress.fresh.get(j - 1) {
                 Some(f) if decoded.truncated && !finished => u64::from(f[c]),
@@ -220,7 +228,7 @@ pub(crate) fn remaining(header: &Header, tree: &ZeroTree, decoded: &Decoded, bas
         // Three world coordinates, a third of each along the normal.
         sum += KAPPA * 4f64.powi(big_l as i32) * base as f64 * t * t / 12.0;
     }
-    let samples = tree.len() + tree.base_vertices();
+    let samples = base_mesh.sample_count(big_l as u32);
     (sum / samples.max(1) as f64).sqrt() * header.step * CALIBRATION
 }
 
@@ -276,10 +284,34 @@ pub(crate) fn level_grid(layout: &Layout, level: u32, values: &[Coord], out: &mu
     }
 }
 
+/// Writes a [`level_grid`] back into `values`: the level's samples as
+/// they were when it was taken.
+pub(crate) fn put_level_grid(layout: &Layout, level: u32, grid: &[Coord], values: &mut [Coord]) {
+    let n = layout.n();
+    let s = 1usize << (layout.level() - level);
+    let mut grid = grid.iter();
+    for f in 0..layout.face_count() {
+        for j in (0..=n).step_by(s) {
+            for i in (0..=n).step_by(s) {
+                values[layout.sample(f, i, j) as usize] = *grid.next().expect("a level grid");
+            }
+        }
+    }
+}
+
 /// The normal distances of level `level + 1`'s samples (in `fine`, after
 /// synthesis to that level) from level `level`'s bilinear quads (`coarse`,
-/// a [`level_grid`]), in quantized units.
-pub(crate) fn step_gap(layout: &Layout, level: u32, coarse: &[Coord], fine: &[Coord]) -> GapSum {
+/// a [`level_grid`]), in quantized units. `moved` says whether the
+/// synthesis moved level `level`'s own samples (the update by the details
+/// of level `level + 1`); when not, the quads' corners are exactly on them
+/// and add nothing but their weight.
+pub(crate) fn step_gap(
+    layout: &Layout,
+    level: u32,
+    coarse: &[Coord],
+    fine: &[Coord],
+    moved: bool,
+) -> GapSum {
     let s = 1usize << (layout.level() - level);
     let h = s / 2;
     let m = 1usize << level;
@@ -316,14 +348,30 @@ pub(crate) fn step_gap(layout: &Layout, level: u32, coarse: &[Coord], fine: &[Co
                     continue;
                 }
                 let normal = normal.map(|x| x / len);
-                for (di, dj, w) in POINTS {
-                    let (u, v) = (di as f64 / 2.0, dj as f64 / 2.0);
-                    let flat: [f64; 3] = std::array::from_fn(|k| {
-                        c[0][k] * (1.0 - u) * (1.0 - v)
-                            + c[1][k] * u * (1.0 - v)
-                            + c[2][k] * u * v
-                            + c[3][k] * (1.0 - u) * v
-                    });
+                // The bilinear quad at the points: exact in `f64` (quarters
+                // of integers below 2^33), so summed in any order.
+                let half = |p: [f64; 3], q: [f64; 3]| std::array::from_fn(|k| (p[k] + q[k]) * 0.5);
+                let centre: [f64; 3] =
+                    std::array::from_fn(|k| (c[0][k] + c[1][k] + c[2][k] + c[3][k]) * 0.25);
+                let flats = [
+                    c[0],
+                    c[1],
+                    c[2],
+                    c[3],
+                    half(c[0], c[1]),
+                    half(c[1], c[2]),
+                    half(c[2], c[3]),
+                    half(c[0], c[3]),
+                    centre,
+                ];
+                let first = if moved {
+                    0
+                } else {
+                    // The corners' four quarters (weights are exact sums).
+                    total.weight += 1.0;
+                    4
+                };
+                for ((di, dj, w), flat) in POINTS.into_iter().zip(flats).skip(first) {
                     let id = layout.sample(f, a * s + di * h, b * s + dj * h);
                     let off = dot(sub(at(fine[id as usize]), flat), normal);
                     total.sum += w * off * off;
@@ -398,6 +446,42 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The quad's points as [`step_gap`] computes them, midpoints and
+    /// centre by sums, are the bilinear formula's values to the last bit
+    /// (quarters of integers below 2^33 are exact in `f64`), so the gaps
+    /// do not depend on which way they are written.
+    #[test]
+    fn bilinear_points_by_sums_are_exact() {
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 32) as i32 as f64
+        };
+        for _ in 0..10_000 {
+            let c: [f64; 4] = std::array::from_fn(|_| next());
+            let bilinear = |u: f64, v: f64| {
+                c[0] * (1.0 - u) * (1.0 - v)
+                    + c[1] * u * (1.0 - v)
+                    + c[2] * u * v
+                    + c[3] * (1.0 - u) * v
+            };
+            let pairs = [
+                (0, 1, 0.5, 0.0),
+                (1, 2, 1.0, 0.5),
+                (2, 3, 0.5, 1.0),
+                (0, 3, 0.0, 0.5),
+            ];
+            for (a, b, u, v) in pairs {
+                assert_eq!(((c[a] + c[b]) * 0.5).to_bits(), bilinear(u, v).to_bits());
+            }
+            let centre = (c[0] + c[1] + c[2] + c[3]) * 0.25;
+            assert_eq!(centre.to_bits(), bilinear(0.5, 0.5).to_bits());
+            assert_eq!(c[2].to_bits(), bilinear(1.0, 1.0).to_bits());
+        }
+    }
 
     #[test]
     fn gaps_add_up_and_extrapolate() {

@@ -4,17 +4,18 @@
 //! once, as soon as they are complete; each [`StreamDecoder::refine`]
 //! decodes everything received so far, resuming the bit-plane decoder from
 //! its last complete pass, at the level the [`DecodeOptions`] choose
-//! ([`crate::LevelChoice::Auto`] by default: the level the bytes support). The
-//! mesh of the last refinement is a [`LevelMesh`]: vertices, quads and
-//! triangles of that level, with the decoder's error estimate. Index
-//! buffers depend only on the layout and are built once per level. Every
-//! binding (the WebAssembly decoder, the command line, Python) wraps this
-//! one type.
+//! ([`crate::LevelChoice::Auto`] by default: the level the bytes support),
+//! building the finer levels' trees and layout only when the bytes reach
+//! them. The mesh of the last refinement is a [`LevelMesh`]: vertices,
+//! quads and triangles of that level, with the decoder's error estimate.
+//! Index buffers depend only on the layout and are built once per level
+//! (again when the layout grows). Every binding (the WebAssembly decoder,
+//! the command line, Python) wraps this one type.
 
 use qm_lift::Coord;
 use qm_lift::glam::DVec3;
 
-use crate::decode::{DecodeOptions, DecodeStatus, Decoder};
+use crate::decode::{DecodeOptions, DecodeStatus, Decoder, level_index};
 use crate::levels::Estimate;
 use crate::{Error, Result};
 
@@ -31,16 +32,7 @@ struct LevelIndex {
 
 impl LevelIndex {
     fn new(layout: &qm_lift::Layout, level: u32) -> Self {
-        let samples = layout.samples_at(level);
-        let mut local = vec![u32::MAX; layout.sample_count()];
-        for (i, &s) in samples.iter().enumerate() {
-            local[s as usize] = i as u32;
-        }
-        let quads: Vec<[u32; 4]> = layout
-            .quads(level)
-            .iter()
-            .map(|q| q.map(|s| local[s as usize]))
-            .collect();
+        let (samples, quads) = level_index(layout, level);
         let triangles = quads
             .iter()
             .flat_map(|&[a, b, c, d]| [a, b, c, a, c, d])
@@ -88,6 +80,8 @@ pub struct StreamDecoder {
     /// far as known.
     needed: usize,
     levels: Vec<Option<LevelIndex>>,
+    /// The level of the decoder's layout the index buffers were made for.
+    indexed: u32,
     values: Vec<Coord>,
     last: Option<Refinement>,
     refinements: u32,
@@ -109,6 +103,7 @@ impl StreamDecoder {
             decoder: None,
             needed: 0,
             levels: Vec::new(),
+            indexed: 0,
             values: Vec::new(),
             last: None,
             refinements: 0,
@@ -142,7 +137,7 @@ impl StreamDecoder {
         if self.decoder.is_none() && self.bytes.len() >= self.needed {
             match Decoder::new(&self.bytes, &self.options.limits) {
                 Ok(decoder) => {
-                    self.levels = vec![None; decoder.layout().level() as usize + 1];
+                    self.levels = vec![None; decoder.finest_level() as usize + 1];
                     self.decoder = Some(decoder);
                 }
                 Err(Error::Truncated { needed, .. }) => {
@@ -183,13 +178,15 @@ impl StreamDecoder {
 
     /// The finest subdivision level of the file (0 before the header).
     pub fn finest_level(&self) -> u32 {
-        self.decoder.as_ref().map_or(0, |d| d.layout().level())
+        self.decoder.as_ref().map_or(0, Decoder::finest_level)
     }
 
     /// Vertices of the mesh at `level` (at most the finest; 0 before the
-    /// base mesh). Builds that level's index buffers once.
-    pub fn vertices_at(&mut self, level: u32) -> usize {
-        self.index(level).map_or(0, |i| i.samples.len())
+    /// base mesh).
+    pub fn vertices_at(&self, level: u32) -> usize {
+        self.decoder
+            .as_ref()
+            .map_or(0, |d| d.vertices_at(level) as usize)
     }
 
     /// Triangles of the mesh at `level`, two per quad (0 before the base).
@@ -197,9 +194,17 @@ impl StreamDecoder {
         self.decoder.as_ref().map_or(0, |d| d.triangles_at(level))
     }
 
+    /// The index buffers of `level` (at most the layout's), made for the
+    /// decoder's layout as it is.
     fn index(&mut self, level: u32) -> Option<&LevelIndex> {
         let decoder = self.decoder.as_ref()?;
-        let level = level.min(decoder.layout().level());
+        let built = decoder.layout().level();
+        if built != self.indexed {
+            // Sample ids are the layout's: a finer one numbers them anew.
+            self.levels.fill(None);
+            self.indexed = built;
+        }
+        let level = level.min(built);
         Some(
             self.levels[level as usize]
                 .get_or_insert_with(|| LevelIndex::new(decoder.layout(), level)),
@@ -211,7 +216,7 @@ impl StreamDecoder {
     /// options); an error before the base mesh is complete
     /// ([`Error::is_truncated`]).
     pub fn refine(&mut self) -> Result<bool> {
-        let Some(decoder) = &self.decoder else {
+        let Some(decoder) = &mut self.decoder else {
             return Err(Error::Truncated {
                 needed: self.needed.max(self.bytes.len() + 1),
                 available: self.bytes.len(),
@@ -404,7 +409,8 @@ impl<'a> LevelMesh<'a> {
         self.index.samples.len()
     }
 
-    /// Sample id of each vertex (finest-layout numbering).
+    /// Sample id of each vertex, in the numbering of the decoder's layout
+    /// ([`Decoder::layout`]), which is as fine as this mesh or finer.
     pub fn samples(&self) -> &'a [u32] {
         &self.index.samples
     }

@@ -4,9 +4,10 @@
 //! embedded bit-plane stream (EZW passes with halving thresholds, zerotree
 //! symbols and refinement bits), every symbol through an adaptive binary
 //! arithmetic coder ([`BitWriter`]). [`decode`] reads any prefix of such a
-//! stream back ([`BitReader`]) and returns the best reconstruction that prefix
-//! allows. Main types: [`StreamParams`] (what a decoder must be told),
-//! [`Weighting`], [`Encoded`], [`Decoded`].
+//! stream back ([`BitReader`]) and returns the best reconstruction that
+//! prefix allows, over a forest that grows only as far as the prefix
+//! reaches ([`ZeroTree::partial`]). Main types: [`StreamParams`] (what a
+//! decoder must be told), [`Weighting`], [`Encoded`], [`Decoded`].
 //!
 //! The modules, by step: `params` (what encoder and decoder agree on, and
 //! the weighting's math), `passes` (planning and running the passes, the

@@ -24,7 +24,8 @@ pub struct Decoded {
     /// are kept sparse; [`Decoded::coefs`] and [`Decoded::scatter`] spread
     /// them.
     pub nonzero: Vec<Nonzero>,
-    /// The number of nodes.
+    /// The number of nodes of the forest as the decoding left it (a
+    /// partial forest grows only as far as the stream reached).
     pub nodes: usize,
     /// Reconstructed low [`StreamParams::base_bits`] bits of each base
     /// value (in `0 .. 2^base_bits`, the centre of what is known), to add
@@ -67,7 +68,7 @@ pub struct Nonzero {
 }
 
 impl Decoded {
-    /// Every coefficient, in node order.
+    /// Every coefficient of the forest's [`Self::nodes`], in node order.
     pub fn coefs(&self) -> Vec<Coef> {
         let mut coefs = vec![[0; 3]; self.nodes];
         for e in &self.nonzero {

@@ -13,7 +13,7 @@ use crate::coder::{Coder, Truth, Unknown};
 use crate::output::{Decoded, Encoded, Progress};
 use crate::params::{BaseBits, Coef, Contexts, MAX_BASE_BITS, StreamParams, Weighting};
 use crate::range::{BitReader, BitWriter, ReaderSnapshot};
-use crate::walk::State;
+use crate::walk::{State, Trees};
 
 /// Encodes node-ordered `coefs` of `tree`, at most `max_passes` passes,
 /// and, when `base` is given, the low [`StreamParams::base_bits`] bits of
@@ -61,7 +61,7 @@ pub(crate) fn code_passes<C: Coder>(
     };
     let mut state = State::new(tree, params);
     for pass in 0..params.passes {
-        let coded = state.pass(tree, pass, coder, &mut oracle);
+        let coded = state.pass(&mut Trees::Whole(tree), pass, coder, &mut oracle);
         debug_assert!(coded.is_ok());
         after_pass(coder);
     }
@@ -78,6 +78,7 @@ pub(crate) fn plan(
     contexts: Contexts,
     max_passes: Option<u32>,
 ) -> (StreamParams, Vec<i32>) {
+    assert!(tree.is_complete(), "the coder walks the complete forest");
     assert_eq!(coefs.len(), tree.len(), "one coefficient per tree node");
     if let Some(base) = base {
         assert!(
@@ -129,8 +130,12 @@ pub(crate) fn plan(
 }
 
 /// Decodes up to `max_passes` passes from `data`, which may be cut anywhere.
+///
+/// `tree` may be a [`ZeroTree::partial`] forest: it grows as the passes
+/// reach its last level (and no further), and the result is what the
+/// complete forest gives, node for node (a complete one never changes).
 pub fn decode(
-    tree: &ZeroTree,
+    tree: &mut ZeroTree,
     params: StreamParams,
     data: &[u8],
     max_passes: Option<u32>,
@@ -165,9 +170,13 @@ impl Checkpoint {
         self.passes
     }
 
-    /// Whether decoding `data` with `params` can start here.
-    fn continues(&self, params: StreamParams, data: &[u8], passes: u32) -> bool {
-        self.state.params == params && self.passes <= passes && data.starts_with(&self.prefix)
+    /// Whether decoding `data` with `params` over `tree` can start here.
+    fn continues(&self, tree: &ZeroTree, params: StreamParams, data: &[u8], passes: u32) -> bool {
+        self.state.params == params
+            && self.state.max_level == tree.max_level()
+            && self.state.depth <= tree.depth()
+            && self.passes <= passes
+            && data.starts_with(&self.prefix)
     }
 }
 
@@ -179,9 +188,11 @@ impl Checkpoint {
 /// A checkpoint costs a copy of the decoder's state, so one is taken only
 /// before a pass that looks like the last one the data holds (fewer bytes
 /// left than the previous pass used); when that guess is wrong the returned
-/// checkpoint is an earlier one, or `from` itself.
+/// checkpoint is an earlier one, or `from` itself. `tree` grows as in
+/// [`decode`]; a checkpoint taken with a smaller forest resumes on the
+/// grown one.
 pub fn decode_resuming(
-    tree: &ZeroTree,
+    tree: &mut ZeroTree,
     params: StreamParams,
     data: &[u8],
     max_passes: Option<u32>,
@@ -192,7 +203,7 @@ pub fn decode_resuming(
 
 /// The decoding loop; checkpoints (state copies) only when `keep` is set.
 fn run_decoder(
-    tree: &ZeroTree,
+    tree: &mut ZeroTree,
     params: StreamParams,
     data: &[u8],
     max_passes: Option<u32>,
@@ -200,7 +211,7 @@ fn run_decoder(
     keep: bool,
 ) -> (Decoded, Option<Checkpoint>) {
     let passes = max_passes.map_or(params.passes, |p| p.min(params.passes));
-    let from = from.filter(|c| c.continues(params, data, passes));
+    let from = from.filter(|c| c.continues(tree, params, data, passes));
     let (mut state, mut reader, mut done, mut saved) = match from {
         Some(c) => (
             c.state.clone(),
@@ -233,7 +244,8 @@ fn run_decoder(
         if done > 0 && left < last_pass_bytes {
             save(&mut saved, &state, &reader, done);
         }
-        if state.pass(tree, pass, &mut reader, &mut Unknown).is_err() {
+        let coded = state.pass(&mut Trees::Growing(tree), pass, &mut reader, &mut Unknown);
+        if coded.is_err() {
             truncated = true;
             break;
         }

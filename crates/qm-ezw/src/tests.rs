@@ -65,7 +65,7 @@ fn sq_error(a: &[Coef], b: &[Coef]) -> f64 {
 #[test]
 fn lossless_after_all_passes() {
     let layout = layout(4);
-    let tree = ZeroTree::new(&layout);
+    let mut tree = ZeroTree::new(&layout);
     for weighting in [
         Weighting::default(),
         Weighting::LEVELS.with_normal_bits(2),
@@ -78,7 +78,7 @@ fn lossless_after_all_passes() {
             let c = coefs(&tree, 99);
             let enc = encode(&tree, &c, None, weighting, contexts, None);
             assert_eq!(enc.params.contexts, contexts);
-            let dec = decode(&tree, enc.params, &enc.bytes, None);
+            let dec = decode(&mut tree, enc.params, &enc.bytes, None);
             assert!(!dec.truncated);
             assert_eq!(dec.passes, enc.params.planes);
             assert_eq!(dec.coefs(), c);
@@ -91,7 +91,7 @@ fn lossless_after_all_passes() {
 /// exactly too, for every number of base bits from none to all.
 #[test]
 fn base_bits_are_lossless() {
-    let tree = ZeroTree::new(&layout(4));
+    let mut tree = ZeroTree::new(&layout(4));
     let b = base(&tree, 7);
     let flat = Weighting {
         bits_per_level: 0,
@@ -118,7 +118,7 @@ fn base_bits_are_lossless() {
     ] {
         let enc = encode_all_bits(&tree, &c, &b, weighting);
         assert_eq!(enc.params.base_bits, bits, "{weighting:?}");
-        let dec = decode(&tree, enc.params, &enc.bytes, None);
+        let dec = decode(&mut tree, enc.params, &enc.bytes, None);
         assert_eq!(dec.coefs(), c);
         assert_eq!(join_base(&b, &dec, bits), b, "{weighting:?}");
         // The high parts alone cost nothing in the stream: the same
@@ -132,7 +132,7 @@ fn base_bits_are_lossless() {
             let base = Some(BaseBits { values: &b, most });
             let fewer = encode(&tree, &c, base, weighting, Contexts::default(), None);
             assert_eq!(fewer.params.base_bits, most.min(bits));
-            let dec = decode(&tree, fewer.params, &fewer.bytes, None);
+            let dec = decode(&mut tree, fewer.params, &fewer.bytes, None);
             assert_eq!(dec.coefs(), c);
             assert_eq!(join_base(&b, &dec, most.min(bits)), b);
             assert!(fewer.bytes.len() <= enc.bytes.len());
@@ -159,7 +159,7 @@ fn all_bits(b: &[Coef]) -> Option<BaseBits<'_>> {
 /// rest is at the centre of what is left.
 #[test]
 fn base_bits_arrive_with_their_planes() {
-    let tree = ZeroTree::new(&layout(3));
+    let mut tree = ZeroTree::new(&layout(3));
     let b = base(&tree, 8);
     let c = coefs(&tree, 9);
     let weighting = Weighting::LEVELS.with_normal_bits(2);
@@ -168,7 +168,7 @@ fn base_bits_arrive_with_their_planes() {
     let s0 = weighting.base_shift(3);
     assert_eq!(k, planes - s0);
     for p in 0..=planes {
-        let dec = decode(&tree, enc.params, &enc.bytes, Some(p));
+        let dec = decode(&mut tree, enc.params, &enc.bytes, Some(p));
         let low = (planes - p).saturating_sub(s0).min(k);
         let got = join_base(&b, &dec, k);
         for (v, g) in b.iter().zip(&got) {
@@ -183,7 +183,7 @@ fn base_bits_arrive_with_their_planes() {
 
 #[test]
 fn all_zero_coefficients_cost_nothing() {
-    let tree = ZeroTree::new(&layout(3));
+    let mut tree = ZeroTree::new(&layout(3));
     let enc = encode(
         &tree,
         &vec![[0; 3]; tree.len()],
@@ -193,13 +193,13 @@ fn all_zero_coefficients_cost_nothing() {
         None,
     );
     assert_eq!(enc.params.planes, 0);
-    let dec = decode(&tree, enc.params, &enc.bytes, None);
+    let dec = decode(&mut tree, enc.params, &enc.bytes, None);
     assert!(dec.coefs().iter().all(|c| *c == [0; 3]));
 }
 
 #[test]
 fn prefixes_decode_and_error_never_rises() {
-    let tree = ZeroTree::new(&layout(4));
+    let mut tree = ZeroTree::new(&layout(4));
     let c = coefs(&tree, 5);
     let b = base(&tree, 6);
     let flat = Weighting {
@@ -220,7 +220,7 @@ fn prefixes_decode_and_error_never_rises() {
             .step_by(enc.bytes.len() / 60 + 1)
             .chain([enc.bytes.len()])
         {
-            let dec = decode(&tree, enc.params, &enc.bytes[..cut], None);
+            let dec = decode(&mut tree, enc.params, &enc.bytes[..cut], None);
             let err = sq_error(&dec.coefs(), &c) + sq_error(&join_base(&b, &dec, k), &b);
             assert!(err <= last, "cut {cut}: {err} > {last}");
             last = err;
@@ -278,7 +278,7 @@ fn bit_budget_matches_the_stream() {
 /// decoding each cut from the start gives, and skips work.
 #[test]
 fn resuming_equals_decoding_from_scratch() {
-    let tree = ZeroTree::new(&layout(4));
+    let mut tree = ZeroTree::new(&layout(4));
     let c = coefs(&tree, 21);
     let b = base(&tree, 22);
     let enc = encode(
@@ -295,12 +295,12 @@ fn resuming_equals_decoding_from_scratch() {
     let n = enc.bytes.len();
     for cut in (0..=n).step_by(n / 97 + 1).chain([n, n]) {
         let data = &enc.bytes[..cut];
-        let fresh = decode(&tree, enc.params, data, None);
+        let fresh = decode(&mut tree, enc.params, data, None);
         let from = checkpoint.take();
         if let Some(c) = &from {
             resumed += (Checkpoint::passes(c) > 0) as usize;
         }
-        let (got, next) = decode_resuming(&tree, enc.params, data, None, from);
+        let (got, next) = decode_resuming(&mut tree, enc.params, data, None, from);
         assert_eq!(got.coefs(), fresh.coefs(), "cut {cut}");
         assert_eq!(got.base_low, fresh.base_low, "cut {cut}");
         assert_eq!((got.passes, got.truncated), (fresh.passes, fresh.truncated));
@@ -316,17 +316,23 @@ fn resuming_equals_decoding_from_scratch() {
         Contexts::default(),
         None,
     );
-    let fresh = decode(&tree, other.params, &other.bytes, None);
-    let (got, _) = decode_resuming(&tree, other.params, &other.bytes, None, checkpoint.clone());
+    let fresh = decode(&mut tree, other.params, &other.bytes, None);
+    let (got, _) = decode_resuming(
+        &mut tree,
+        other.params,
+        &other.bytes,
+        None,
+        checkpoint.clone(),
+    );
     assert_eq!(got.coefs(), fresh.coefs());
-    let fresh = decode(&tree, enc.params, &enc.bytes, Some(3));
-    let (got, _) = decode_resuming(&tree, enc.params, &enc.bytes, Some(3), checkpoint);
+    let fresh = decode(&mut tree, enc.params, &enc.bytes, Some(3));
+    let (got, _) = decode_resuming(&mut tree, enc.params, &enc.bytes, Some(3), checkpoint);
     assert_eq!(got.coefs(), fresh.coefs());
 }
 
 #[test]
 fn fewer_passes_are_a_prefix_of_more() {
-    let tree = ZeroTree::new(&layout(3));
+    let mut tree = ZeroTree::new(&layout(3));
     let c = coefs(&tree, 11);
     let full = encode(
         &tree,
@@ -345,9 +351,64 @@ fn fewer_passes_are_a_prefix_of_more() {
         Some(4),
     );
     assert_eq!(four.params.passes, 4);
-    let a = decode(&tree, four.params, &four.bytes, None);
-    let b = decode(&tree, full.params, &full.bytes, Some(4));
+    let a = decode(&mut tree, four.params, &four.bytes, None);
+    let b = decode(&mut tree, full.params, &full.bytes, Some(4));
     assert_eq!(a.coefs(), b.coefs());
     assert_eq!(a.passes, 4);
     assert!(full.pass_ends.windows(2).all(|w| w[0] <= w[1]));
+}
+
+/// A decoder that starts from the roots alone ([`ZeroTree::partial`]) and
+/// grows its forest as the passes reach finer levels decodes every cut,
+/// from scratch or resuming, exactly as one with the complete forest, node
+/// for node; short cuts leave the finer levels unbuilt.
+#[test]
+fn a_growing_forest_decodes_what_the_complete_one_does() {
+    let layout = layout(4);
+    let mut complete = ZeroTree::new(&layout);
+    let (c, b) = (coefs(&complete, 31), base(&complete, 32));
+    for contexts in [Contexts::Tree, Contexts::Neighbours] {
+        let weighting = Weighting::LEVELS.with_normal_bits(2);
+        let enc = encode(&complete, &c, all_bits(&b), weighting, contexts, None);
+        let mut resumed = ZeroTree::partial(layout.base(), 4, 1);
+        let mut checkpoint = None;
+        let mut depths = Vec::new();
+        let n = enc.bytes.len();
+        for cut in (0..=n).step_by(n / 61 + 1).chain([n]) {
+            let data = &enc.bytes[..cut];
+            let want = decode(&mut complete, enc.params, data, None);
+            let mut fresh = ZeroTree::partial(layout.base(), 4, 1);
+            let got = decode(&mut fresh, enc.params, data, None);
+            let (again, next) =
+                decode_resuming(&mut resumed, enc.params, data, None, checkpoint.take());
+            checkpoint = next;
+            for got in [&got, &again] {
+                assert_eq!(got.nonzero, want.nonzero, "cut {cut}, {contexts}");
+                assert_eq!(got.base_low, want.base_low, "cut {cut}");
+                assert_eq!((got.passes, got.truncated), (want.passes, want.truncated));
+                assert_eq!(
+                    (got.bytes_read, &got.progress),
+                    (want.bytes_read, &want.progress)
+                );
+            }
+            // The forest holds the levels the walk reached: after complete
+            // passes, none below the deepest significant coefficient (a
+            // subtree opens only over one).
+            let deepest = got
+                .nonzero
+                .iter()
+                .map(|e| complete.levels()[e.node as usize]);
+            if !got.truncated {
+                assert!(
+                    fresh.depth() <= deepest.max().unwrap_or(1) as u32,
+                    "cut {cut}"
+                );
+            }
+            assert_eq!(got.nodes, fresh.len());
+            depths.push(fresh.depth());
+        }
+        assert_eq!(depths.first(), Some(&1), "no bytes: the roots alone");
+        assert!(depths.contains(&2) && depths.contains(&3), "{depths:?}");
+        assert_eq!(depths.last(), Some(&4));
+    }
 }

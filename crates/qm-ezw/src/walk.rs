@@ -22,6 +22,16 @@
 //! All three coordinates share the tree: one pass refines all three (world
 //! x, y, z, or normal and tangents).
 //!
+//! **Growing trees.** A pass reaches level `l + 1` only through a level-`l`
+//! subtree that is open, and a subtree opens only when a coordinate below
+//! it is significant: a zerotree root covers all its descendants, so the
+//! finer levels of a short prefix are never visited. The decoder therefore
+//! walks a [`ZeroTree::partial`] forest and grows it ([`Trees::Growing`])
+//! when a pass first opens a subtree on its last level built; the nodes,
+//! their order and every context are those of the complete forest, so the
+//! bits are the same. The coder has every coefficient and walks the
+//! complete forest ([`Trees::Whole`]).
+//!
 //! **Reconstruction.** An unresolved coefficient is put at the centre of its
 //! uncertainty interval, so more bits never make the expected error larger
 //! (the paper's rising error came from doing otherwise).
@@ -36,11 +46,41 @@ use crate::output::{Nonzero, Progress};
 use crate::params::{Coef, Contexts, MAX_BASE_BITS, StreamParams};
 use crate::range::Truncated;
 
+/// The forest a pass walks: complete and borrowed (coding), or growing
+/// as the pass reaches levels not built yet (decoding).
+pub(crate) enum Trees<'a> {
+    Whole(&'a ZeroTree),
+    Growing(&'a mut ZeroTree),
+}
+
+impl Trees<'_> {
+    #[inline]
+    fn get(&self) -> &ZeroTree {
+        match self {
+            Trees::Whole(tree) => tree,
+            Trees::Growing(tree) => tree,
+        }
+    }
+
+    /// Adds a level: a pass asks only for the children of nodes above the
+    /// finest level, which a whole forest has built.
+    fn grow(&mut self) {
+        match self {
+            Trees::Whole(_) => unreachable!("a whole forest has every level"),
+            Trees::Growing(tree) => tree.grow(),
+        }
+    }
+}
+
 /// What coder and decoder both know about each node.
 #[derive(Clone)]
 pub(crate) struct State {
     pub(crate) params: StreamParams,
-    max_level: u32,
+    /// The forest's finest level `L` (the weights' and contexts' level).
+    pub(crate) max_level: u32,
+    /// The levels of the forest the node arrays are sized for, and the
+    /// numbering of [`Self::around`] (see [`Self::fit`]).
+    pub(crate) depth: u32,
     /// Bit `c` set: coordinate `c` is significant.
     sig: Vec<u8>,
     /// Bit `c` set: coordinate `c` is negative.
@@ -77,6 +117,7 @@ impl State {
         State {
             params,
             max_level: tree.max_level(),
+            depth: tree.depth(),
             sig: vec![0; n],
             neg: vec![0; n],
             open: vec![false; n],
@@ -91,6 +132,32 @@ impl State {
             base_known: vec![0; 3 * base_values],
             base_low: vec![params.base_bits as u8; 3 * base_values],
             progress: Progress::default(),
+        }
+    }
+
+    /// Makes the node arrays cover `tree`, a forest grown from the one the
+    /// state was made for (the same nodes first): new nodes know nothing
+    /// yet, and what the neighbours show moves to the finer numbering.
+    pub(crate) fn fit(&mut self, tree: &ZeroTree) {
+        let n = tree.len();
+        if self.sig.len() < n {
+            self.sig.resize(n, 0);
+            self.neg.resize(n, 0);
+            self.open.resize(n, false);
+        }
+        if self.depth < tree.depth() {
+            if !self.around.is_empty() {
+                let to = tree.numbering();
+                let from = to.at_level(self.depth);
+                let mut around = vec![0; tree.base_vertices() + n];
+                for (s, &a) in self.around.iter().enumerate() {
+                    if a != 0 {
+                        around[from.refine(s as u32, to) as usize] = a;
+                    }
+                }
+                self.around = around;
+            }
+            self.depth = tree.depth();
         }
     }
 
@@ -139,11 +206,12 @@ impl State {
     /// removing them; see `docs/passes.md`.)
     pub(crate) fn pass<C: Coder, O: Oracle>(
         &mut self,
-        tree: &ZeroTree,
+        trees: &mut Trees,
         pass: u32,
         coder: &mut C,
         oracle: &mut O,
     ) -> Result<(), Truncated> {
+        self.fit(trees.get());
         let plane = self.params.planes as i32 - 1 - pass as i32;
         self.progress.base = false;
         self.progress.levels = 0;
@@ -152,7 +220,7 @@ impl State {
         self.base_pass(plane, coder, oracle)?;
         self.progress.base = true;
         let before: Vec<usize> = self.refine_lists.iter().map(Vec::len).collect();
-        self.dominant(tree, plane, &before, coder, oracle)?;
+        self.dominant(trees, plane, &before, coder, oracle)?;
         self.progress.levels = self.max_level;
         Ok(())
     }
@@ -183,19 +251,16 @@ impl State {
 
     fn dominant<C: Coder, O: Oracle>(
         &mut self,
-        tree: &ZeroTree,
+        trees: &mut Trees,
         plane: i32,
         refine_before: &[usize],
         coder: &mut C,
         oracle: &mut O,
     ) -> Result<(), Truncated> {
-        let levels = tree.levels();
-        let kinds = tree.kinds();
-        let parents = tree.parents();
         let mut frontier = std::mem::take(&mut self.frontier);
         let mut next = std::mem::take(&mut self.next);
         frontier.clear();
-        frontier.extend(0..tree.roots() as u32);
+        frontier.extend(0..trees.get().roots() as u32);
         let mut result = Ok(());
         // Breadth first: the frontier holds the visited nodes of one level.
         let mut depth = 1;
@@ -210,6 +275,11 @@ impl State {
                 result = Err(e);
                 break 'levels;
             }
+            let tree = trees.get();
+            let (levels, kinds, parents) = (tree.levels(), tree.kinds(), tree.parents());
+            // Whether the children of this level are built; if not, `next`
+            // gathers the open nodes, whose children come once they are.
+            let built = tree.depth() > depth;
             depth += 1;
             next.clear();
             for &k in &frontier {
@@ -301,8 +371,7 @@ impl State {
                         });
                     }
                 }
-                let children = tree.children(k);
-                if children.is_empty() {
+                if !tree.has_children(k) {
                     continue;
                 }
                 if !self.open[k] {
@@ -327,7 +396,21 @@ impl State {
                         }
                     }
                 }
-                next.extend(children.map(|c| c as u32));
+                if built {
+                    next.extend(tree.children(k).map(|c| c as u32));
+                } else {
+                    next.push(k as u32);
+                }
+            }
+            if !built && !next.is_empty() {
+                trees.grow();
+                let tree = trees.get();
+                self.fit(tree);
+                let open = next.len();
+                for i in 0..open {
+                    next.extend(tree.children(next[i] as usize).map(|c| c as u32));
+                }
+                next.drain(..open);
             }
             self.progress.levels = depth - 1;
             std::mem::swap(&mut frontier, &mut next);

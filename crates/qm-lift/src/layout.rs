@@ -57,6 +57,33 @@ impl Numbering {
         1 << self.level
     }
 
+    /// The refinement level this numbering counts.
+    #[inline]
+    pub const fn level(self) -> u32 {
+        self.level
+    }
+
+    /// The numbering of the same base mesh refined `level` times.
+    #[inline]
+    pub const fn at_level(self, level: u32) -> Self {
+        Numbering { level, ..self }
+    }
+
+    /// The id, in `finer` (a numbering of the same base mesh at this
+    /// level or a finer one, [`Self::at_level`]), of this numbering's
+    /// sample `s`: the same point, counted among more samples. The order of
+    /// ids is kept, so a coarse level's samples come in the same order in
+    /// either numbering.
+    #[inline]
+    pub const fn refine(self, s: u32, finer: Numbering) -> u32 {
+        let shift = finer.level - self.level;
+        match self.place(s) {
+            Place::Vertex(v) => v,
+            Place::Edge { edge, along } => finer.edge_sample(edge, along << shift),
+            Place::Face { face, i, j } => finer.face_sample(face, i << shift, j << shift),
+        }
+    }
+
     /// The first id of the face interiors.
     #[inline]
     pub const fn first_interior(self) -> u32 {
@@ -149,26 +176,12 @@ pub const fn side_coords(n: i32, k: u8, i: i32, j: i32) -> (i32, i32) {
 impl Layout {
     /// Lays out the samples of `base` refined `level` times.
     pub fn new(base: BaseMesh, level: u32) -> Result<Self> {
-        if level > MAX_LEVEL {
-            return Err(Error::LevelTooHigh {
-                level,
-                max: MAX_LEVEL,
-            });
-        }
-        let n = 1u64 << level;
-        let f = base.faces().len() as u64;
-        let samples = base.sample_count(level);
-        let grid_len = f * (n + 1) * (n + 1);
-        if samples > MAX_SAMPLES || grid_len > 2 * MAX_SAMPLES {
-            return Err(Error::TooManySamples {
-                samples,
-                max: MAX_SAMPLES,
-            });
-        }
-        let n = n as usize;
+        Self::check(&base, level)?;
+        let n = 1usize << level;
         let side = n + 1;
         let numbering = Numbering::new(&base, level);
-        let mut grid = vec![0u32; grid_len as usize];
+        let samples = base.sample_count(level) as u32;
+        let mut grid = vec![0u32; base.faces().len() * side * side];
         for (fi, corners) in base.faces().iter().enumerate() {
             let g = &mut grid[fi * side * side..(fi + 1) * side * side];
             for j in 1..n {
@@ -190,8 +203,30 @@ impl Layout {
             base,
             level,
             grid,
-            sample_count: samples as u32,
+            sample_count: samples,
         })
+    }
+
+    /// Whether `base` refined `level` times can be laid out: the error
+    /// [`Self::new`] would give (a level above [`MAX_LEVEL`], more samples
+    /// than [`MAX_SAMPLES`]), found without building anything.
+    pub fn check(base: &BaseMesh, level: u32) -> Result<()> {
+        if level > MAX_LEVEL {
+            return Err(Error::LevelTooHigh {
+                level,
+                max: MAX_LEVEL,
+            });
+        }
+        let n = 1u64 << level;
+        let samples = base.sample_count(level);
+        let grid_len = base.faces().len() as u64 * (n + 1) * (n + 1);
+        if samples > MAX_SAMPLES || grid_len > 2 * MAX_SAMPLES {
+            return Err(Error::TooManySamples {
+                samples,
+                max: MAX_SAMPLES,
+            });
+        }
+        Ok(())
     }
 
     /// The base mesh.
@@ -428,6 +463,30 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A coarse numbering's ids refine to the finer layout's ids of the
+    /// same grid points, in the same order.
+    #[test]
+    fn refined_ids_are_the_same_points_in_the_same_order() {
+        let coarse = Layout::new(cube(), 2).unwrap();
+        let fine = Layout::new(cube(), 4).unwrap();
+        let (from, to) = (coarse.numbering(), fine.numbering());
+        assert_eq!(from.at_level(4), to);
+        for f in 0..coarse.face_count() {
+            for j in 0..=4 {
+                for i in 0..=4 {
+                    let s = coarse.sample(f, i, j);
+                    assert_eq!(from.refine(s, to), fine.sample(f, 4 * i, 4 * j));
+                    assert_eq!(from.refine(s, from), s);
+                }
+            }
+        }
+        let refined: Vec<u32> = (0..coarse.sample_count() as u32)
+            .map(|s| from.refine(s, to))
+            .collect();
+        assert!(refined.windows(2).all(|w| w[0] < w[1]));
+        assert_eq!(refined, fine.samples_at(2));
     }
 
     #[test]

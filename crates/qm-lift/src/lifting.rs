@@ -541,6 +541,41 @@ mod tests {
         }
     }
 
+    /// A level whose details are all zero comes out of the inverse as the
+    /// prediction alone: its update adds nothing and its frames turn
+    /// zeros, so [`Lifting::predict`] makes the same values (what a
+    /// decoder uses for the levels a short prefix has no details of).
+    #[test]
+    fn a_level_without_details_is_its_prediction() {
+        for layout in [cube(4), open_grid(3)] {
+            for frames in [None, Some(2), Some(3)] {
+                let lifting = Lifting::new(&layout, UpdateRule::MeanPreserving)
+                    .with_parent_frames_from(frames);
+                let mut coefs = pseudo_random(layout.sample_count(), 11);
+                lifting.forward(&mut coefs);
+                for level in 1..=layout.level() {
+                    let mut data = coefs.clone();
+                    let odd: Vec<u32> = {
+                        let even = layout.samples_at(level - 1);
+                        let all = layout.samples_at(level);
+                        all.into_iter()
+                            .filter(|s| even.binary_search(s).is_err())
+                            .collect()
+                    };
+                    for &s in &odd {
+                        data[s as usize] = [0; 3];
+                    }
+                    lifting.inverse_to(&mut data, level - 1);
+                    let mut predicted = data.clone();
+                    lifting.inverse_levels(&mut data, level - 1, level);
+                    lifting.predict(level, &mut predicted);
+                    assert_eq!(data, predicted, "level {level}, frames {frames:?}");
+                    assert!(odd.iter().any(|&s| data[s as usize] != [0; 3]));
+                }
+            }
+        }
+    }
+
     /// A plane is reproduced exactly by every stencil (cubic precision inside,
     /// quadratic at boundaries), so all details vanish without update.
     #[test]

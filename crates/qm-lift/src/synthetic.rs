@@ -92,6 +92,21 @@ pub fn bumpy_split_octahedron(level: u32) -> SemiRegularMesh {
 /// `base` refined `level` times, each face bilinear between its corners'
 /// places `corner(v)`, pushed out onto a sphere with a wavy relief.
 fn bumpy(base: BaseMesh, corner: impl Fn(u32) -> DVec3, level: u32) -> SemiRegularMesh {
+    refined(base, corner, level, |p| {
+        let d = p.normalize();
+        d * (1.0 + 0.05 * (7.0 * d.x).sin() * (5.0 * d.y).cos() + 0.01 * (23.0 * d.z).sin())
+    })
+}
+
+/// `base` refined `level` times (at most [`crate::MAX_LEVEL`]), each face
+/// bilinear between its corners' places `corner(v)`, every point then
+/// moved to `shape(point)`; points on shared edges get one position.
+pub fn refined(
+    base: BaseMesh,
+    corner: impl Fn(u32) -> DVec3,
+    level: u32,
+    shape: impl Fn(DVec3) -> DVec3,
+) -> SemiRegularMesh {
     let layout = Layout::new(base, level).expect("level within limits");
     let n = layout.n();
     let mut positions = vec![DVec3::ZERO; layout.sample_count()];
@@ -104,10 +119,7 @@ fn bumpy(base: BaseMesh, corner: impl Fn(u32) -> DVec3, level: u32) -> SemiRegul
                     + c[1] * u * (1.0 - v)
                     + c[2] * u * v
                     + c[3] * (1.0 - u) * v;
-                let d = p.normalize();
-                let relief =
-                    1.0 + 0.05 * (7.0 * d.x).sin() * (5.0 * d.y).cos() + 0.01 * (23.0 * d.z).sin();
-                positions[layout.sample(f, i, j) as usize] = d * relief;
+                positions[layout.sample(f, i, j) as usize] = shape(p);
             }
         }
     }

@@ -320,7 +320,7 @@ fn decode(py: Python<'_>, data: &[u8], options: &Decoding) -> PyResult<Decoded> 
         vertices: rows(py, flat, 3).unbind(),
         faces: rows(py, quads, 4).unbind(),
         level: decoded.level(),
-        finest_level: decoded.raw.layout.level(),
+        finest_level: u32::from(decoded.raw.header.level),
         passes: decoded.passes(),
         total_passes: u32::from(decoded.raw.header.passes),
         truncated: decoded.truncated(),
@@ -349,7 +349,6 @@ fn info<'py>(
         })
         .map_err(|e| to_py(e.into()))?;
     let h = decoder.header();
-    let layout = decoder.layout();
     let out = PyDict::new(py);
     out.set_item("bytes", data.len())?;
     out.set_item("stream_start", decoder.stream_start())?;
@@ -360,8 +359,8 @@ fn info<'py>(
     out.set_item("holds", h.holds.len())?;
     out.set_item("base_vertices", h.base_vertices)?;
     out.set_item("base_faces", h.base_faces)?;
-    out.set_item("vertices", layout.sample_count())?;
-    out.set_item("triangles", decoder.triangles_at(layout.level()))?;
+    out.set_item("vertices", decoder.vertices_at(decoder.finest_level()))?;
+    out.set_item("triangles", decoder.triangles_at(decoder.finest_level()))?;
     out.set_item("bbox_min", h.origin)?;
     out.set_item("step", h.step)?;
     let levels = table

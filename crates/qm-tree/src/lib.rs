@@ -23,6 +23,16 @@
 //! comes before its children, and levels come one after another: the order
 //! the coder scans in.
 //!
+//! **Partial forests.** The rules above are the same at every scale (a
+//! point's children depend on where it lies relative to its spacing `h`,
+//! not on `L`), so the first `d` levels of the forest of level `L` are the
+//! forest of level `d`, node for node: the same order, kinds, parents and
+//! children. A decoder that has read only a prefix of a stream needs just
+//! those: [`ZeroTree::partial`] builds them, numbering their samples as a
+//! level-`d` layout does ([`ZeroTree::numbering`]), and [`ZeroTree::grow`]
+//! adds a level when the stream reaches it. Node indices stay what they
+//! were; sample ids move to the finer numbering ([`Numbering::refine`]).
+//!
 //! **Neighbours.** Besides its tree, a coefficient has neighbours on its own
 //! level, which a coder can use as context ([`ZeroTree::neighbours`]): the
 //! level-`l` coefficients at the grid offsets `(+-h, 0)` and `(0, +-h)` from
@@ -62,7 +72,11 @@ pub struct ZeroTree {
     first_child: Vec<u32>,
     child_counts: Vec<u8>,
     level_starts: Vec<usize>,
+    /// The finest level of the forest, `L`.
     max_level: u32,
+    /// The levels built, `1 ..= depth` (all of them, `L`, unless built by
+    /// [`ZeroTree::partial`]); sample ids are in that level's numbering.
+    depth: u32,
     /// The base mesh, whose numbering of the samples locates a node's
     /// neighbours (for [`Self::neighbours`]).
     base: BaseMesh,
@@ -92,67 +106,92 @@ impl ZeroTree {
     /// base vertices) in one breadth-first pass: each node's face-local
     /// grid position gives its children directly (see `children_of`).
     pub fn new(layout: &Layout) -> Self {
-        let big_l = layout.level();
-        let samples = layout.sample_count();
-        let base = layout.base();
-        let n = layout.n();
-        let count = samples - base.vertex_count() as usize;
-        if big_l == 0 {
-            return ZeroTree {
-                samples: Vec::new(),
-                levels: Vec::new(),
-                kinds: Vec::new(),
-                parents: Vec::new(),
-                first_child: Vec::new(),
-                child_counts: Vec::new(),
-                level_starts: vec![0],
-                max_level: big_l,
-                base: base.clone(),
-            };
+        let side = layout.n() + 1;
+        Self::build(layout.base(), layout.level(), layout.level(), |f, x, y| {
+            layout.face_grid(f as usize)[y * side + x]
+        })
+    }
+
+    /// The first `depth` levels of the forest of `base` refined `level`
+    /// times (see the module docs), their samples numbered as a layout of
+    /// level `depth` numbers them; `depth` is taken in `1 ..= level` (0
+    /// for a level-0 forest, which has no nodes). Costs time and memory in
+    /// proportion to the samples of level `depth`, not `level`.
+    pub fn partial(base: &BaseMesh, level: u32, depth: u32) -> Self {
+        let depth = depth.clamp(level.min(1), level);
+        let numbering = Numbering::new(base, depth);
+        Self::build(base, level, depth, |f, x, y| {
+            grid_sample(base, numbering, f, x as i32, y as i32)
+        })
+    }
+
+    /// Adds the next level to a partial forest (nothing once complete):
+    /// node indices stay, sample ids move to the finer level's numbering.
+    pub fn grow(&mut self) {
+        if !self.is_complete() {
+            *self = Self::partial(&self.base, self.max_level, self.depth + 1);
         }
-        // Every array has one entry per node: filled in place, not pushed.
+    }
+
+    /// The forest of `base` refined `max_level` times, its levels up to
+    /// `depth` (grid coordinates and sample ids, `id(face, x, y)`, those of
+    /// a level-`depth` layout).
+    fn build(
+        base: &BaseMesh,
+        max_level: u32,
+        depth: u32,
+        id: impl Fn(u32, usize, usize) -> u32,
+    ) -> Self {
+        let n = 1usize << depth;
+        let count = (base.sample_count(depth) - base.vertex_count() as u64) as usize;
         let mut tree = ZeroTree {
-            samples: Vec::with_capacity(count),
-            levels: vec![0; count],
-            kinds: Vec::with_capacity(count),
-            parents: vec![NO_PARENT; count],
-            // Only nodes above the finest level have children: these two
-            // arrays stop there (breadth-first, the finest level comes last).
+            samples: Vec::new(),
+            levels: Vec::new(),
+            kinds: Vec::new(),
+            parents: Vec::new(),
             first_child: Vec::new(),
             child_counts: Vec::new(),
             level_starts: vec![0],
-            max_level: big_l,
+            max_level,
+            depth,
             base: base.clone(),
         };
+        if depth == 0 {
+            return tree;
+        }
+        // Every array has one entry per node: filled in place, not pushed.
+        tree.samples.reserve_exact(count);
+        tree.levels = vec![0; count];
+        tree.kinds.reserve_exact(count);
+        tree.parents = vec![NO_PARENT; count];
         // Grid position of each node: face, then `x | y << 16`.
         let mut at: Vec<(u32, u32)> = Vec::with_capacity(count);
         let pack = |x: usize, y: usize| (x | y << 16) as u32;
         let c = n / 2;
-        for f in 0..layout.face_count() {
-            let grid = layout.face_grid(f);
-            tree.samples.push(grid[c * (n + 1) + c]);
+        for f in 0..base.faces().len() as u32 {
+            tree.samples.push(id(f, c, c));
             tree.kinds.push(Kind::Face);
-            at.push((f as u32, pack(c, c)));
+            at.push((f, pack(c, c)));
             for k in 0..4u8 {
-                if base.owns(f as u32, k) {
+                if base.owns(f, k) {
                     let (i, j) = qm_lift::side_point(n as i32, k, c as i32, 0);
                     let (i, j) = (i as usize, j as usize);
-                    tree.samples.push(grid[j * (n + 1) + i]);
+                    tree.samples.push(id(f, i, j));
                     tree.kinds.push(Kind::Edge);
-                    at.push((f as u32, pack(i, j)));
+                    at.push((f, pack(i, j)));
                 }
             }
         }
         let roots = tree.samples.len();
         tree.levels[..roots].fill(1);
-        let mut level_end = vec![0usize; big_l as usize + 1];
+        let mut level_end = vec![0usize; depth as usize + 1];
         let mut kids = [(0u32, 0usize, 0usize); 4];
         let mut next = 0;
         while next < tree.samples.len() {
             let level = tree.levels[next];
             level_end[level as usize] = next + 1;
-            if level as u32 == big_l {
-                // The rest is the finest level: no children.
+            if level as u32 == depth {
+                // The rest is the last level built: no children here.
                 level_end[level as usize] = tree.samples.len();
                 break;
             }
@@ -161,17 +200,16 @@ impl ZeroTree {
             tree.first_child.push(first as u32);
             let (f, xy) = at[next];
             let (x, y) = ((xy & 0xffff) as usize, (xy >> 16) as usize);
-            let h = 1 << (big_l - level as u32);
-            let count = Self::children_of(layout, kind, f, x, y, h, &mut kids);
+            let h = 1 << (depth - level as u32);
+            let count = Self::children_of(base, n, kind, f, x, y, h, &mut kids);
             tree.child_counts.push(count as u8);
             tree.parents[first..first + count].fill(next as u32);
             tree.levels[first..first + count].fill(level + 1);
             for &(g, x, y) in &kids[..count] {
-                tree.samples
-                    .push(layout.face_grid(g as usize)[y * (n + 1) + x]);
+                tree.samples.push(id(g, x, y));
                 tree.kinds.push(kind);
-                // The finest nodes have no children to find.
-                if level as u32 + 1 < big_l {
+                // The last level's nodes have no children to find.
+                if level as u32 + 1 < depth {
                     at.push((g, pack(x, y)));
                 }
             }
@@ -192,7 +230,7 @@ impl ZeroTree {
     #[inline]
     pub fn neighbours(&self, k: usize) -> Neighbours {
         let numbering = self.numbering();
-        let h = 1u32 << (self.max_level - self.levels[k] as u32);
+        let h = 1u32 << (self.depth - self.levels[k] as u32);
         let n = numbering.n();
         let mut found = Neighbours::default();
         let mut push = |id: u32| {
@@ -241,28 +279,17 @@ impl ZeroTree {
         found
     }
 
-    /// How the layout numbers the samples.
+    /// How the samples are numbered: as a layout of the levels built
+    /// numbers them (the tree's own layout's numbering when complete).
     #[inline]
-    fn numbering(&self) -> Numbering {
-        Numbering::new(&self.base, self.max_level)
+    pub fn numbering(&self) -> Numbering {
+        Numbering::new(&self.base, self.depth)
     }
 
     /// The id of point `(i, j)` of face `f`, inside it or on a side (not a
     /// corner).
     fn sample_at(&self, f: u32, i: i32, j: i32) -> u32 {
-        let numbering = self.numbering();
-        let n = numbering.n() as i32;
-        if (1..n).contains(&i) && (1..n).contains(&j) {
-            return numbering.face_sample(f, i as u32, j as u32);
-        }
-        let side = match (i, j) {
-            (_, 0) => 0u8,
-            (i, _) if i == n => 1,
-            (_, j) if j == n => 2,
-            _ => 3,
-        };
-        let (t, _) = qm_lift::side_coords(n, side, i, j);
-        numbering.side_sample(&self.base, f, side, t as u32)
+        grid_sample(&self.base, self.numbering(), f, i, j)
     }
 
     /// Children of the level-`l` node at `(x, y)` of face `f`, `h = 2^(L-l)`,
@@ -271,8 +298,10 @@ impl ZeroTree {
     /// faces (the one below or left first, then across a base edge by face
     /// index) with its two halves after the spoke of the face that owns it.
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     fn children_of(
-        layout: &Layout,
+        base: &BaseMesh,
+        n: usize,
         kind: Kind,
         f: u32,
         x: usize,
@@ -290,7 +319,6 @@ impl ZeroTree {
             ];
             return 4;
         }
-        let n = layout.n();
         let horizontal = x & h != 0;
         let side = match (horizontal, x, y) {
             (true, _, 0) => 0u8,
@@ -331,7 +359,6 @@ impl ZeroTree {
                 [(g, x, y - q), (g, x, y + q)]
             }
         };
-        let base = layout.base();
         let mut incident = [(f, side, x, y); 2];
         let mut faces = 1;
         let other = base.across(f, side);
@@ -358,7 +385,7 @@ impl ZeroTree {
         count
     }
 
-    /// Number of coefficients (nodes).
+    /// Number of coefficients (nodes) built.
     pub fn len(&self) -> usize {
         self.samples.len()
     }
@@ -373,9 +400,27 @@ impl ZeroTree {
         self.level_starts.get(1).copied().unwrap_or(0)
     }
 
-    /// Finest level `L`.
+    /// Finest level `L` of the forest, built or not.
     pub fn max_level(&self) -> u32 {
         self.max_level
+    }
+
+    /// The levels built: nodes of levels `1 ..= depth()` are there
+    /// ([`Self::max_level`] unless the forest is [`Self::partial`]).
+    pub fn depth(&self) -> u32 {
+        self.depth
+    }
+
+    /// Whether every level is built.
+    pub fn is_complete(&self) -> bool {
+        self.depth == self.max_level
+    }
+
+    /// Whether node `k` has children in the forest (built or not): every
+    /// node above the finest level has.
+    #[inline]
+    pub fn has_children(&self, k: usize) -> bool {
+        (self.levels[k] as u32) < self.max_level
     }
 
     /// Number of base vertices: the level-0 values, which are not nodes
@@ -384,17 +429,17 @@ impl ZeroTree {
         self.base.vertex_count() as usize
     }
 
-    /// Node range of level `l` (1 ..= L).
+    /// Node range of level `l` (`1 ..= depth()`).
     pub fn level_range(&self, l: u32) -> std::ops::Range<usize> {
         self.level_starts[l as usize - 1]..self.level_starts[l as usize]
     }
 
-    /// Sample id of each node.
+    /// Sample id of each node, in [`Self::numbering`].
     pub fn samples(&self) -> &[u32] {
         &self.samples
     }
 
-    /// Level (1 ..= L) of each node.
+    /// Level (`1 ..= depth()`) of each node.
     pub fn levels(&self) -> &[u8] {
         &self.levels
     }
@@ -409,12 +454,14 @@ impl ZeroTree {
         &self.parents
     }
 
-    /// Children of node `k`: a contiguous node range.
+    /// Children of node `k`: a contiguous node range; empty on the finest
+    /// level, and on the last level built of a partial forest
+    /// ([`Self::has_children`] tells them apart).
     #[inline]
     pub fn children(&self, k: usize) -> std::ops::Range<usize> {
         match self.first_child.get(k) {
             Some(&first) => first as usize..first as usize + self.child_counts[k] as usize,
-            // The finest level.
+            // The last level built.
             None => self.samples.len()..self.samples.len(),
         }
     }
@@ -433,6 +480,24 @@ impl ZeroTree {
             by_sample[s as usize] = v;
         }
     }
+}
+
+/// The id, in `numbering`, of point `(i, j)` of face `f`'s grid, inside it
+/// or on a side (not a corner).
+#[inline]
+fn grid_sample(base: &BaseMesh, numbering: Numbering, f: u32, i: i32, j: i32) -> u32 {
+    let n = numbering.n() as i32;
+    if (1..n).contains(&i) && (1..n).contains(&j) {
+        return numbering.face_sample(f, i as u32, j as u32);
+    }
+    let side = match (i, j) {
+        (_, 0) => 0u8,
+        (i, _) if i == n => 1,
+        (_, j) if j == n => 2,
+        _ => 3,
+    };
+    let (t, _) = qm_lift::side_coords(n, side, i, j);
+    numbering.side_sample(base, f, side, t as u32)
 }
 
 #[cfg(test)]
@@ -601,6 +666,44 @@ mod tests {
             // Each boundary base edge has 2^(l-1) edge points at level l.
             let per_edge: usize = (1..=level).map(|l| 1usize << (l - 1)).sum();
             assert_eq!(lonely, layout.base().boundary_edge_count() * per_edge);
+        }
+    }
+
+    /// The first `d` levels of a forest, built alone and grown a level at a
+    /// time, are the complete forest's first `d` levels node for node: the
+    /// same levels, kinds, parents, children and neighbours, at the same
+    /// points (their ids refined to the complete numbering).
+    #[test]
+    fn partial_forests_are_the_first_levels_of_the_complete_one() {
+        for (base, level) in [(cube(), 4), (holed_grid(), 3)] {
+            let complete = ZeroTree::new(&Layout::new(base.clone(), level).unwrap());
+            let mut grown = ZeroTree::partial(&base, level, 0);
+            assert_eq!(grown.depth(), 1, "at least the roots");
+            for depth in 1..=level {
+                let tree = ZeroTree::partial(&base, level, depth);
+                assert_eq!(tree.len(), complete.level_range(depth).end, "depth {depth}");
+                assert_eq!(tree.roots(), complete.roots());
+                assert_eq!(tree.is_complete(), depth == level);
+                let fine = |s: u32| tree.numbering().refine(s, complete.numbering());
+                for k in 0..tree.len() {
+                    assert_eq!(tree.levels()[k], complete.levels()[k], "node {k}");
+                    assert_eq!(tree.kinds()[k], complete.kinds()[k], "node {k}");
+                    assert_eq!(tree.parents()[k], complete.parents()[k], "node {k}");
+                    assert_eq!(fine(tree.samples()[k]), complete.samples()[k], "node {k}");
+                    assert_eq!(tree.has_children(k), complete.has_children(k));
+                    if (tree.levels()[k] as u32) < depth {
+                        assert_eq!(tree.children(k), complete.children(k), "node {k}");
+                    } else {
+                        assert!(tree.children(k).is_empty(), "node {k}: not built");
+                    }
+                    let near: Vec<u32> = tree.neighbours(k).iter().map(|&s| fine(s)).collect();
+                    assert_eq!(near, &complete.neighbours(k)[..], "node {k}");
+                }
+                assert_eq!(grown.samples(), tree.samples(), "grown to {depth}");
+                assert_eq!(grown.parents(), tree.parents(), "grown to {depth}");
+                grown.grow();
+            }
+            assert_eq!(grown.depth(), level, "a complete forest stops growing");
         }
     }
 

@@ -116,7 +116,7 @@ fn build(qm: &[u8], options: &GltfOptions) -> Result<(Value, Vec<u8>, Glb)> {
     let levels = crate::prefix_table(qm, &DecodeOptions::DEFAULT)?;
     // The header and base (checked by the table already).
     let decoder = Decoder::new(qm, &DecodeOptions::DEFAULT.limits)?;
-    let finest = decoder.layout().level();
+    let finest = decoder.finest_level();
     let stream_start = decoder.stream_start();
     let most = options
         .fallback_triangles

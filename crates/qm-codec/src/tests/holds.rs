@@ -41,7 +41,7 @@ fn with_holds_no_cut_is_worse_than_a_shorter_one() {
     assert!(after <= RISE, "held cuts still rise by {after}");
     let header = container::read(&held.bytes, &Limits::NONE).unwrap().header;
     assert!(!header.holds.is_empty());
-    let decoder = Decoder::new(&held.bytes, &Limits::NONE).unwrap();
+    let mut decoder = Decoder::new(&held.bytes, &Limits::NONE).unwrap();
     let (mut inside, mut start) = (Vec::new(), Vec::new());
     let s = stream(&held);
     for &[from, to] in &header.holds {
@@ -72,7 +72,7 @@ fn a_budget_sends_only_bytes_that_are_decoded() {
     assert!(header.holds.len() < holds.len());
     assert!(header.holds.iter().all(|&[f, _]| (f as usize) < n));
     let decode = |bytes: &[u8]| {
-        let d = Decoder::new(bytes, &Limits::NONE).unwrap();
+        let mut d = Decoder::new(bytes, &Limits::NONE).unwrap();
         let mut values = Vec::new();
         d.decode_into(&bytes[d.stream_start()..], None, None, &mut values);
         values

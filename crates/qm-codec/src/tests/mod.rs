@@ -4,5 +4,6 @@
 
 mod frames;
 mod holds;
+mod lazy;
 mod levels;
 mod round_trip;

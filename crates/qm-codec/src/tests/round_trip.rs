@@ -57,7 +57,7 @@ fn lossless_at_the_last_pass() {
 #[test]
 fn incremental_decoding_equals_decompress() {
     let c = compress(&sphere(4), &EncodeOptions::DEFAULT).unwrap();
-    let decoder = Decoder::new(&c.bytes, &Limits::DEFAULT).unwrap();
+    let mut decoder = Decoder::new(&c.bytes, &Limits::DEFAULT).unwrap();
     let start = decoder.stream_start();
     let mut values = Vec::new();
     for cut in (start..=c.bytes.len()).step_by(97).chain([c.bytes.len()]) {
@@ -83,9 +83,10 @@ fn base_values_sharpen_pass_by_pass() {
         &DecodeOptions::default().with_level(LevelChoice::Fixed(0)),
     );
     let mut truth = whole.unwrap().values;
-    let decoder = Decoder::new(&stream.bytes, &Limits::DEFAULT).unwrap();
+    let mut decoder = Decoder::new(&stream.bytes, &Limits::DEFAULT).unwrap();
     truth.truncate(decoder.header().base_vertices as usize);
-    let (h, k) = (decoder.header(), decoder.header().stream_params().base_bits);
+    let h = decoder.header().clone();
+    let k = h.stream_params().base_bits;
     let s0 = h.stream_params().weighting.base_shift(h.level as u32);
     assert!(k > 3 && k <= h.planes as u32 - s0, "{k} base bits");
     let stream_bytes = &stream.bytes[decoder.stream_start()..];
