@@ -250,25 +250,20 @@ fn curve(points: impl Iterator<Item = (usize, f64)>) -> Vec<(usize, f64)> {
 /// until there are at least `triangles` of them, and every vertex moved by a
 /// uniform noise of [`NOISE`] of the diagonal, as [`scan_like`] has.
 pub fn denser(mesh: &PolyMesh, triangles: usize) -> PolyMesh {
-    let mut faces: Vec<[u32; 3]> = (mesh.faces())
+    let faces: Vec<[u32; 3]> = (mesh.faces())
         .flat_map(|f| (1..f.len().saturating_sub(1)).map(move |k| [f[0], f[k], f[k + 1]]))
         .collect();
-    let mut positions = mesh.positions.clone();
-    while faces.len() < triangles {
-        let mut midpoint = HashMap::new();
-        let mut split = Vec::with_capacity(4 * faces.len());
-        for [a, b, c] in faces {
-            let mut mid = |a: u32, b: u32| -> u32 {
-                *midpoint.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                    positions.push(0.5 * (positions[a as usize] + positions[b as usize]));
-                    (positions.len() - 1) as u32
-                })
-            };
-            let (ab, bc, ca) = (mid(a, b), mid(b, c), mid(c, a));
-            split.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
-        }
-        faces = split;
+    let mut dense = qm::param::TriMesh {
+        positions: mesh.positions.clone(),
+        triangles: faces,
+    };
+    while dense.triangles.len() < triangles {
+        dense = dense.split_at_midpoints();
     }
+    let qm::param::TriMesh {
+        mut positions,
+        triangles: faces,
+    } = dense;
     let (low, high) =
         (positions.iter()).fold((DVec3::MAX, DVec3::MIN), |(l, h), &p| (l.min(p), h.max(p)));
     let scale = NOISE * (high - low).length();
