@@ -79,6 +79,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
         let base = qm::ezw::BaseBits {
             values: &data[..coded],
             most: header.stream_params().base_bits,
+            whole: false,
         };
         let budgets = qm::ezw::bit_budget(
             &tree,

@@ -155,6 +155,10 @@ pub struct Decompressed {
     pub decoded_stream_bytes: usize,
     /// The decoder's estimate of the error of each level at this prefix.
     pub estimate: Estimate,
+    /// For a file with colours: one 8-bit sRGB colour per vertex of the
+    /// mesh at [`Self::level`], in the order of [`Self::level_mesh`]'s
+    /// positions.
+    pub colours: Option<Vec<[u8; 3]>>,
 }
 
 impl Decompressed {
@@ -220,6 +224,7 @@ pub(crate) fn decompress_with(
         &mut values,
         false,
     );
+    let colours = decoder.colours().map(<[_]>::to_vec);
     let Decoder {
         header,
         layout,
@@ -242,6 +247,7 @@ pub(crate) fn decompress_with(
         base_bytes,
         layout,
         estimate,
+        colours,
     }
 }
 
@@ -274,6 +280,25 @@ pub struct Decoder {
     quantizer: Quantizer,
     header_bytes: usize,
     base_bytes: usize,
+    /// For a file with colours: the colour stream's decoder.
+    colour: Option<Box<ColourDecoder>>,
+}
+
+/// The colour stream's decoder state (see [`crate::colour`]).
+#[derive(Clone, Debug)]
+struct ColourDecoder {
+    header: container::ColourHeader,
+    /// The trees the colour stream reached.
+    tree: ZeroTree,
+    checkpoint: Option<qm_ezw::Checkpoint>,
+    /// The coefficients of the last decode.
+    decoded: Option<qm_ezw::Decoded>,
+    /// Colour stream bytes the last decode used.
+    used: usize,
+    /// Whether the last decode's colour stream ended before its last pass.
+    truncated: bool,
+    /// The last decode's colours, one per vertex of its level.
+    colours: Vec<[u8; 3]>,
 }
 
 /// What one call of [`Decoder::decode_into`] achieved.
@@ -308,6 +333,17 @@ impl Decoder {
             step: h.step,
         };
         // The base section's decoder checked that an implied base is a split.
+        let colour = h.colour.clone().map(|header| {
+            Box::new(ColourDecoder {
+                header,
+                tree: ZeroTree::partial(layout.base(), h.level as u32, 1),
+                checkpoint: None,
+                decoded: None,
+                used: 0,
+                truncated: false,
+                colours: Vec::new(),
+            })
+        });
         let split = h
             .implied()
             .then(|| basecode::split_triangles_of(layout.base().faces(), h.base_vertices as usize))
@@ -322,7 +358,83 @@ impl Decoder {
             quantizer,
             header_bytes: c.header_bytes,
             base_bytes: c.base_bytes,
+            colour,
         })
+    }
+
+    /// For a file with colours, those of the last decode: one 8-bit sRGB
+    /// colour per vertex of its level's mesh, in the order of
+    /// [`Decompressed::level_mesh`] (empty before the first decode).
+    pub fn colours(&self) -> Option<&[[u8; 3]]> {
+        self.colour.as_ref().map(|c| &c.colours[..])
+    }
+
+    /// Splits an interleaved `stream` and decodes the colour part's
+    /// coefficients; the geometry part (all of `stream` without colours).
+    fn colour_coefficients<'s>(
+        &mut self,
+        stream: &'s [u8],
+        resume: bool,
+    ) -> std::borrow::Cow<'s, [u8]> {
+        let Some(colour) = &mut self.colour else {
+            return stream.into();
+        };
+        let (geometry, coloured) = crate::colour::split(&colour.header.runs, stream);
+        let params = colour.header.stream_params(self.header.base_vertices);
+        let decoded = if resume {
+            let from = colour.checkpoint.take();
+            let (decoded, checkpoint) =
+                qm_ezw::decode_resuming(&mut colour.tree, params, &coloured, None, from);
+            colour.checkpoint = checkpoint;
+            decoded
+        } else {
+            qm_ezw::decode(&mut colour.tree, params, &coloured, None)
+        };
+        colour.truncated = decoded.truncated;
+        colour.used = if decoded.truncated {
+            coloured.len()
+        } else {
+            decoded.bytes_read.min(coloured.len())
+        };
+        colour.decoded = Some(decoded);
+        geometry.into()
+    }
+
+    /// The colours of the last colour coefficients at `status.level` (the
+    /// layout reaches it), and `status` (the geometry's) with the
+    /// interleaved stream's bytes used and truncated if the colour's was.
+    fn colour_values(&mut self, mut status: DecodeStatus) -> DecodeStatus {
+        let Some(colour) = &mut self.colour else {
+            return status;
+        };
+        let Some(decoded) = &colour.decoded else {
+            return status;
+        };
+        let level = status.level;
+        let mut values = Vec::new();
+        crate::colour::fill(&self.layout, &colour.tree, decoded, &mut values);
+        let levels = colour.tree.levels();
+        let top = (decoded.nonzero.iter())
+            .map(|e| levels[e.node as usize] as u32)
+            .max()
+            .unwrap_or(0);
+        let update = UpdateRule::from_code(self.header.update).expect("checked by the container");
+        synthesize(
+            &Lifting::new(&self.layout, update),
+            &mut values,
+            0,
+            level,
+            top,
+        );
+        let (samples, _) = level_index(&self.layout, level);
+        colour.colours = (samples.iter())
+            .map(|&s| crate::colour::from_value(values[s as usize]))
+            .collect();
+        let runs = &colour.header.runs;
+        status.decoded_bytes = crate::colour::offset_of(runs, 0, status.decoded_bytes)
+            .max(crate::colour::offset_of(runs, 1, colour.used));
+        status.truncated |= colour.truncated;
+        status
     }
 
     /// Offset of the embedded stream in the file.
@@ -378,19 +490,20 @@ impl Decoder {
         values: &mut Vec<Coord>,
         resume: bool,
     ) -> DecodeStatus {
-        let (decoded, used) = self.coefficients(stream, passes, resume);
+        let stream = self.colour_coefficients(stream, resume);
+        let (decoded, used) = self.coefficients(&stream, passes, resume);
         let finest = self.finest_level();
         let level = level.map_or(finest, |l| l.min(finest));
         self.build_layout(level);
         self.fill(&decoded, values);
         let top = self.top_level(&decoded);
         self.synthesize(values, 0, level, top);
-        DecodeStatus {
+        self.colour_values(DecodeStatus {
             level,
             passes: decoded.passes,
             truncated: decoded.truncated,
             decoded_bytes: used,
-        }
+        })
     }
 
     /// Decodes `stream` (as [`Self::decode_into`]) with `options`' pass
@@ -398,6 +511,19 @@ impl Decoder {
     /// caller's), into `values` at the level chosen; the decoder's estimate
     /// of the error of each level (see [`crate::levels`]).
     pub fn decode_choosing(
+        &mut self,
+        stream: &[u8],
+        options: &DecodeOptions,
+        values: &mut Vec<Coord>,
+        resume: bool,
+    ) -> (DecodeStatus, Estimate) {
+        let stream = self.colour_coefficients(stream, resume);
+        let (status, estimate) = self.geometry_choosing(&stream, options, values, resume);
+        (self.colour_values(status), estimate)
+    }
+
+    /// [`Self::decode_choosing`] of the geometry stream.
+    fn geometry_choosing(
         &mut self,
         stream: &[u8],
         options: &DecodeOptions,
@@ -516,7 +642,8 @@ impl Decoder {
     /// Makes the layout reach `level` and the tree's levels (the layout
     /// only grows).
     fn build_layout(&mut self, level: u32) {
-        let level = level.max(self.tree.depth());
+        let colour = self.colour.as_ref().map_or(0, |c| c.tree.depth());
+        let level = level.max(self.tree.depth()).max(colour);
         if level > self.layout.level() {
             let base = self.layout.base().clone();
             self.layout = Layout::new(base, level).expect("checked by Decoder::new");
@@ -548,12 +675,7 @@ impl Decoder {
     /// turn zeros, so the prediction alone makes them, at less cost (the
     /// same values).
     fn synthesize(&self, values: &mut [Coord], from: u32, to: u32, top: u32) {
-        let lifting = self.lifting();
-        let detailed = to.min(top.max(from));
-        lifting.inverse_levels(values, from, detailed);
-        for level in detailed + 1..=to {
-            lifting.predict(level, values);
-        }
+        synthesize(&self.lifting(), values, from, to, top);
     }
 
     /// Vertices of the mesh at `level` (at most the finest), built or not.
@@ -670,6 +792,16 @@ impl Decoder {
                 values[s as usize][e.coord as usize] = e.value;
             }
         }
+    }
+}
+
+/// The inverse `lifting` of `values` from level `from` to `to`, the
+/// levels above `top` (which have no details) by the prediction alone.
+fn synthesize(lifting: &Lifting, values: &mut [Coord], from: u32, to: u32, top: u32) {
+    let detailed = to.min(top.max(from));
+    lifting.inverse_levels(values, from, detailed);
+    for level in detailed + 1..=to {
+        lifting.predict(level, values);
     }
 }
 

@@ -16,7 +16,7 @@ use crate::compressed::Compressed;
 use crate::container::{self, BaseSection, Header, Limits};
 use crate::frames::{self, Frames};
 use crate::holds::{self, Probes};
-use crate::{Error, Result, basecode};
+use crate::{Error, Result, basecode, colour};
 
 /// Default extra weight, in bits, of the normal component of the details:
 /// it moves the surface, the tangential ones mostly slide samples along it
@@ -127,6 +127,36 @@ pub fn compress_probed(
     options: &EncodeOptions,
     probes: Option<&Probes>,
 ) -> Result<Compressed> {
+    compress_all(mesh, None, options, probes)
+}
+
+/// [`compress_probed`] with one 8-bit sRGB colour per sample of `mesh`,
+/// coded in a stream of its own that the file interleaves with the
+/// geometry's as their measured gains say (`docs/appearance.md`); the
+/// probes (built when `None`) also measure the geometry for that.
+pub fn compress_coloured(
+    mesh: &SemiRegularMesh,
+    colours: &[[u8; 3]],
+    options: &EncodeOptions,
+    probes: Option<&Probes>,
+) -> Result<Compressed> {
+    compress_all(mesh, Some(colours), options, probes)
+}
+
+/// [`compress_probed`], with colours or not.
+fn compress_all(
+    mesh: &SemiRegularMesh,
+    colours: Option<&[[u8; 3]]>,
+    options: &EncodeOptions,
+    probes: Option<&Probes>,
+) -> Result<Compressed> {
+    // With colours the budget is the interleaved file's: the geometry's
+    // frames and holds are chosen for its whole stream.
+    let geometry_budget = if colours.is_some() {
+        None
+    } else {
+        options.max_bytes
+    };
     for (what, value, max) in [
         ("weight bits per level", options.weighting.bits_per_level, 2),
         (
@@ -178,18 +208,19 @@ pub fn compress_probed(
             })?;
             compress_with(kind as u8)?
         }
-        Frames::Auto => frames::auto(mesh.layout(), &quantized, options.max_bytes, compress_with)?,
+        Frames::Auto => frames::auto(mesh.layout(), &quantized, geometry_budget, compress_with)?,
     };
     let mut stream_end = None;
-    if options.holds {
-        let own;
-        let probes = match probes {
-            Some(p) => p,
-            None => {
-                own = Probes::on_surface(mesh);
-                &own
-            }
-        };
+    let own;
+    let probes = match probes {
+        Some(p) => Some(p),
+        None if options.holds || colours.is_some() => {
+            own = Probes::on_surface(mesh);
+            Some(&own)
+        }
+        None => None,
+    };
+    if let Some(probes) = probes {
         if probes.samples() != mesh.layout().sample_count() {
             return Err(Error::Setting {
                 what: "samples of the probes' mesh",
@@ -198,8 +229,10 @@ pub fn compress_probed(
                 max: mesh.layout().sample_count() as u64,
             });
         }
+    }
+    if let (true, Some(probes)) = (options.holds, probes) {
         let mut holds = holds::find(&compressed, probes);
-        if let Some(max) = options.max_bytes {
+        if let Some(max) = geometry_budget {
             // A budget that ends inside a hold would carry bytes no decoder
             // reads: the stream ends at the hold's start instead. Holds
             // from there on would be header bytes for nothing.
@@ -214,6 +247,9 @@ pub fn compress_probed(
             stream_end = Some(end);
         }
         compressed = with_holds(compressed, holds)?;
+    }
+    if let (Some(colours), Some(probes)) = (colours, probes) {
+        compressed = with_colour(compressed, mesh.layout(), colours, options.update, probes)?;
     }
     if let Some(max) = options.max_bytes {
         let prefix = compressed.header_bytes + compressed.base_bytes;
@@ -265,6 +301,7 @@ fn compress_with(
     let in_stream = Some(qm_ezw::BaseBits {
         values: &values[..corners.unwrap_or(values.len())],
         most,
+        whole: false,
     });
 
     let encoded = qm_ezw::encode(
@@ -291,6 +328,7 @@ fn compress_with(
         passes: encoded.params.passes as u8,
         flags: low_bits | if implied { container::IMPLIED_SPLIT } else { 0 },
         holds: Vec::new(),
+        colour: None,
     };
     let section = BaseSection {
         faces: base.faces().to_vec(),
@@ -309,6 +347,59 @@ fn compress_with(
         pass_ends,
         quantized: quantized.to_vec(),
         quantizer,
+    })
+}
+
+/// `compressed` (geometry alone) with the colour stream of `colours`
+/// interleaved, the geometry measured with `probes`.
+fn with_colour(
+    compressed: Compressed,
+    layout: &Layout,
+    colours: &[[u8; 3]],
+    update: UpdateRule,
+    probes: &Probes,
+) -> Result<Compressed> {
+    let code = colour::encode(layout, update, colours)?;
+    let start = compressed.header_bytes + compressed.base_bytes;
+    let geometry = &compressed.bytes[start..];
+    let curve = |ends: &mut Vec<usize>, len: usize| {
+        ends.insert(0, 0);
+        if ends.last() != Some(&len) {
+            ends.push(len);
+        }
+    };
+    let mut ends: Vec<usize> = compressed.pass_ends.iter().map(|e| e - start).collect();
+    curve(&mut ends, geometry.len());
+    let errors = holds::errors(&compressed, probes, &ends);
+    let geometry_curve: Vec<(usize, f64)> = ends.into_iter().zip(errors).collect();
+    let mut ends = code.pass_ends.clone();
+    curve(&mut ends, code.bytes.len());
+    let last = code.errors.last().copied().unwrap_or(0.0);
+    let errors = code.errors.iter().copied().chain(std::iter::repeat(last));
+    let colour_curve: Vec<(usize, f64)> = ends.into_iter().zip(errors).collect();
+    let runs = colour::interleave(&geometry_curve, &colour_curve);
+    let stream = colour::join(&runs, geometry, &code.bytes);
+    let c = container::read(&compressed.bytes, &Limits::NONE)?;
+    let header = Header {
+        flags: c.header.flags | container::COLOUR,
+        colour: Some(container::ColourHeader {
+            runs: runs.clone(),
+            ..code.header
+        }),
+        ..c.header
+    };
+    let bytes = container::write(&header, &c.base, &stream)?;
+    let header_bytes = header_len(&bytes);
+    let prefix = bytes.len() - stream.len();
+    let pass_ends = (compressed.pass_ends.iter())
+        .map(|e| prefix + colour::offset_of(&runs, 0, e - start))
+        .collect();
+    Ok(Compressed {
+        bytes,
+        header_bytes,
+        base_bytes: prefix - header_bytes,
+        pass_ends,
+        ..compressed
     })
 }
 

@@ -21,6 +21,7 @@
 //! `stream` ([`StreamDecoder`]) decodes a file received in pieces.
 
 mod basecode;
+mod colour;
 mod compressed;
 pub mod container;
 mod decode;
@@ -37,7 +38,7 @@ pub use basecode::coded_base_values;
 pub use compressed::Compressed;
 pub use container::{DEFAULT_MAX_MEMORY, Limits};
 pub use decode::{DecodeOptions, DecodeStatus, Decoder, Decompressed, decompress};
-pub use encode::{EncodeOptions, compress, compress_probed};
+pub use encode::{EncodeOptions, compress, compress_coloured, compress_probed};
 pub use error::{Error, Result};
 pub use frames::{AUTO_CUTS, AUTO_MIN_GAIN_DB, Frames};
 pub use holds::Probes;

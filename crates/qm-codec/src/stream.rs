@@ -440,6 +440,11 @@ impl<'a> LevelMesh<'a> {
         }
     }
 
+    /// For a file with colours: one 8-bit sRGB colour per vertex.
+    pub fn colours(&self) -> Option<&'a [[u8; 3]]> {
+        self.decoder.colours()
+    }
+
     /// Quads as vertex indices, counter-clockwise.
     pub fn quads(&self) -> &'a [[u32; 4]] {
         &self.index.quads

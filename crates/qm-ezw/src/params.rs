@@ -152,6 +152,12 @@ pub struct BaseBits<'a> {
     /// The level-0 values, one per base vertex.
     pub values: &'a [Coef],
     /// The most low bits of each to carry; the stream carries fewer when
-    /// it has no pass for them ([`Weighting::max_base_bits`]).
+    /// it has no pass for them ([`Weighting::max_base_bits`]), unless
+    /// `whole` is set.
     pub most: u32,
+    /// Make the stream's planes reach bit `most - 1` of the base values,
+    /// so that it carries all `most` low bits whatever the details need:
+    /// for values below `2^most` (non-negative), whose high parts are then
+    /// all zero and need no storing (`qm-codec`'s colours).
+    pub whole: bool,
 }

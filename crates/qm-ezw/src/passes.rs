@@ -115,6 +115,10 @@ pub(crate) fn plan(
         Some(b) if tree.is_empty() && !b.values.is_empty() && b.most > 0 => {
             weighting.base_shift(big_l) + b.most.min(MAX_BASE_BITS)
         }
+        Some(b) if b.whole && !b.values.is_empty() && b.most > 0 => {
+            let whole = weighting.base_shift(big_l) + b.most.min(MAX_BASE_BITS);
+            whole.max((top + 1) as u32)
+        }
         _ => (top + 1) as u32,
     };
     let passes = max_passes.map_or(planes, |p| p.min(planes));

@@ -129,13 +129,49 @@ fn base_bits_are_lossless() {
         assert_eq!(bits == 0, without.bytes == enc.bytes);
         // Fewer bits on request, and the rest of the stream unchanged.
         for most in [0, 1, bits / 2] {
-            let base = Some(BaseBits { values: &b, most });
+            let base = Some(BaseBits {
+                values: &b,
+                most,
+                whole: false,
+            });
             let fewer = encode(&tree, &c, base, weighting, Contexts::default(), None);
             assert_eq!(fewer.params.base_bits, most.min(bits));
             let dec = decode(&mut tree, fewer.params, &fewer.bytes, None);
             assert_eq!(dec.coefs(), c);
             assert_eq!(join_base(&b, &dec, most.min(bits)), b);
             assert!(fewer.bytes.len() <= enc.bytes.len());
+        }
+    }
+}
+
+/// With `whole`, the planes reach the base values' top bit even when the
+/// details are small, so every bit of every value is in the stream.
+#[test]
+fn whole_base_values_get_planes_of_their_own() {
+    let l = layout(3);
+    let mut tree = ZeroTree::new(&l);
+    // Small details (colours' are), base values below 2^11.
+    let c: Vec<Coef> = coefs(&tree, 5).iter().map(|v| v.map(|x| x % 3)).collect();
+    let b: Vec<Coef> = base(&tree, 9)
+        .iter()
+        .map(|v| v.map(|x| x.rem_euclid(2048)))
+        .collect();
+    let weighting = Weighting::default();
+    for whole in [false, true] {
+        let base = Some(BaseBits {
+            values: &b,
+            most: 11,
+            whole,
+        });
+        let enc = encode(&tree, &c, base, weighting, Contexts::default(), None);
+        let dec = decode(&mut tree, enc.params, &enc.bytes, None);
+        assert_eq!(dec.coefs(), c);
+        if whole {
+            assert_eq!(enc.params.base_bits, 11);
+            assert_eq!(enc.params.planes, weighting.base_shift(3) + 11);
+            assert_eq!(dec.base_low, b, "every value whole from the stream");
+        } else {
+            assert!(enc.params.base_bits < 11, "the details' planes alone");
         }
     }
 }
@@ -151,6 +187,7 @@ fn all_bits(b: &[Coef]) -> Option<BaseBits<'_>> {
     Some(BaseBits {
         values: b,
         most: MAX_BASE_BITS,
+        whole: false,
     })
 }
 

@@ -80,6 +80,50 @@ pub struct Header {
     /// end and its length.
     #[serde(skip)]
     pub holds: Vec<[u32; 2]>,
+    /// With [`COLOUR`] set: the colour stream's parameters and how it is
+    /// interleaved with the geometry's, written after the holds.
+    #[serde(skip)]
+    pub colour: Option<ColourHeader>,
+}
+
+/// The colour stream of a file with [`COLOUR`] set: its parameters, and
+/// how the file's stream interleaves it with the geometry's
+/// (`crate::colour`).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ColourHeader {
+    /// Bit planes of the complete colour stream.
+    pub planes: u8,
+    /// Passes it holds (at most `planes`).
+    pub passes: u8,
+    /// Weighting bits per level.
+    pub weight_bits: u8,
+    /// Extra weighting bits of the luma.
+    pub luma_bits: u8,
+    /// Bits of each base value the colour stream carries: all of them
+    /// (the values are below `2^base_bits`).
+    pub base_bits: u8,
+    /// The interleaving: the file's stream is `runs[0][0]` geometry
+    /// bytes, then `runs[0][1]` colour bytes, then `runs[1][0]` geometry
+    /// bytes and so on; each part is a prefix of its own stream.
+    pub runs: Vec<[u32; 2]>,
+}
+
+impl ColourHeader {
+    /// What the bit-plane decoder must be told about the colour stream
+    /// over `base_vertices` base vertices.
+    pub fn stream_params(&self, base_vertices: u32) -> qm_ezw::StreamParams {
+        qm_ezw::StreamParams {
+            planes: self.planes as u32,
+            passes: self.passes as u32,
+            weighting: qm_ezw::Weighting {
+                bits_per_level: self.weight_bits as u32,
+                normal_bits: self.luma_bits as u32,
+            },
+            base_bits: self.base_bits as u32,
+            base_values: base_vertices,
+            contexts: qm_ezw::Contexts::Neighbours,
+        }
+    }
 }
 
 /// [`Header::hold_cut`] for ordered, non-overlapping `holds`.
@@ -101,8 +145,13 @@ pub const BASE_BITS_MASK: u32 = 0x1f;
 /// as before; readers that predate it refuse it as a reserved flag.
 pub const IMPLIED_SPLIT: u32 = 0x20;
 
+/// The flag of a file with per-sample colours: a [`ColourHeader`] follows
+/// the holds, and the stream interleaves the colour stream with the
+/// geometry's. Readers that predate it refuse it as a reserved flag.
+pub const COLOUR: u32 = 0x40;
+
 /// Every flag bit with a meaning.
-const KNOWN_FLAGS: u32 = BASE_BITS_MASK | IMPLIED_SPLIT;
+const KNOWN_FLAGS: u32 = BASE_BITS_MASK | IMPLIED_SPLIT | COLOUR;
 
 impl Header {
     /// The first level whose frames use parent-quad normals, `None` for
@@ -195,6 +244,10 @@ pub fn encode_header(header: &Header) -> Result<Vec<u8>> {
         })
         .collect();
     bincode::serde::encode_into_std_write(&relative, &mut bytes, config()).map_err(encode_error)?;
+    if let Some(colour) = &header.colour {
+        bincode::serde::encode_into_std_write(colour, &mut bytes, config())
+            .map_err(encode_error)?;
+    }
     Ok(bytes)
 }
 
@@ -219,6 +272,11 @@ pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u
         });
     }
     check_implied(header, VERSION)?;
+    if header.colour.is_some() != (header.flags & COLOUR != 0) {
+        return Err(Error::Malformed {
+            what: "a colour header without the colour flag, or the flag without one".into(),
+        });
+    }
     if base.low_bits != low_bits {
         return Err(Error::Malformed {
             what: format!(
@@ -272,6 +330,11 @@ pub struct Limits {
 /// the coder's state, and the output mesh (positions and quads). Measured
 /// peaks of `qm decompress` stay below it (`docs/hostile-input.md`).
 pub const DECODE_BYTES_PER_SAMPLE: u64 = 160;
+
+/// Bytes per sample a decoder of a file with colours holds beside
+/// [`DECODE_BYTES_PER_SAMPLE`]: the colour values, tree and coder state,
+/// and the output colours.
+pub const COLOUR_BYTES_PER_SAMPLE: u64 = 64;
 
 /// Bytes per base vertex and per base face a decoder holds, at most (the
 /// base mesh's adjacency and the section as read).
@@ -332,8 +395,14 @@ pub fn sample_count(h: &Header) -> u64 {
 /// [`DECODE_BYTES_PER_SAMPLE`] and [`DECODE_BYTES_PER_BASE_ELEMENT`].
 pub fn decode_memory(h: &Header) -> u64 {
     let base = h.base_vertices as u64 + h.base_faces as u64;
+    let per_sample = DECODE_BYTES_PER_SAMPLE
+        + if h.colour.is_some() {
+            COLOUR_BYTES_PER_SAMPLE
+        } else {
+            0
+        };
     sample_count(h)
-        .saturating_mul(DECODE_BYTES_PER_SAMPLE)
+        .saturating_mul(per_sample)
         .saturating_add(base.saturating_mul(DECODE_BYTES_PER_BASE_ELEMENT))
 }
 
@@ -371,7 +440,21 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
     if crc != crc32(&data[..7 + header_len]) {
         return Err(Error::Checksum { section: "header" });
     }
-    let (header, relative): (Header, Vec<[u32; 2]>) = decode_exact(header_raw, "header")?;
+    let (header, used): (Header, usize) = decode_part(header_raw, "header")?;
+    let (relative, more): (Vec<[u32; 2]>, usize) = decode_part(&header_raw[used..], "header")?;
+    let mut used = used + more;
+    let colour = if header.flags & COLOUR != 0 {
+        let (colour, more) = decode_part(&header_raw[used..], "colour header")?;
+        used += more;
+        Some(colour)
+    } else {
+        None
+    };
+    if used != header_raw.len() {
+        return Err(Error::Malformed {
+            what: format!("header: {} trailing bytes", header_raw.len() - used),
+        });
+    }
     let mut end = 0u32;
     let mut holds = Vec::with_capacity(relative.len());
     for [gap, len] in relative {
@@ -385,7 +468,11 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
         holds.push([from, to]);
         end = to;
     }
-    let header = Header { holds, ..header };
+    let header = Header {
+        holds,
+        colour,
+        ..header
+    };
     let header_bytes = 7 + header_len + 4;
     check_header(&header, limits)?;
     check_implied(&header, version)?;
@@ -435,7 +522,8 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
     })
 }
 
-fn decode_exact<T: serde::de::DeserializeOwned>(raw: &[u8], what: &str) -> Result<T> {
+/// The value at the start of `raw`, and the bytes it took.
+fn decode_part<T: serde::de::DeserializeOwned>(raw: &[u8], what: &str) -> Result<(T, usize)> {
     // The limit stops a corrupt length prefix from allocating more than the
     // section could possibly hold.
     let cfg = config().with_limit::<{ 1 << 30 }>();
@@ -450,12 +538,7 @@ fn decode_exact<T: serde::de::DeserializeOwned>(raw: &[u8], what: &str) -> Resul
             what: format!("{what}: {problem}"),
         }
     })?;
-    if used != raw.len() {
-        return Err(Error::Malformed {
-            what: format!("{what}: {} trailing bytes", raw.len() - used),
-        });
-    }
-    Ok(value)
+    Ok((value, used))
 }
 
 /// Holds must be non-empty, ordered and apart: `from < to <= next from`.
@@ -468,6 +551,43 @@ fn check_holds(holds: &[[u32; 2]]) -> Result<()> {
             });
         }
         end = to;
+    }
+    Ok(())
+}
+
+/// The colour header's planes fit its values and weights, its base bits
+/// have planes, and its runs count at most 2^32 - 1 bytes of each stream.
+fn check_colour(c: &ColourHeader, level: u8) -> Result<()> {
+    let malformed = |what: String| Err(Error::Malformed { what });
+    if c.weight_bits > 2 || c.luma_bits > MAX_NORMAL_BITS {
+        return malformed(format!(
+            "colour weights of {} and {} bits",
+            c.weight_bits, c.luma_bits
+        ));
+    }
+    let most_planes =
+        crate::colour::VALUE_BITS + 8 + c.weight_bits as u32 * level as u32 + c.luma_bits as u32;
+    if c.planes as u32 > most_planes || c.passes > c.planes {
+        return malformed(format!("{} colour passes of {} planes", c.passes, c.planes));
+    }
+    let params = c.stream_params(0);
+    let most = params
+        .weighting
+        .max_base_bits(c.planes as u32, level as u32);
+    if c.base_bits as u32 > most.min(crate::colour::VALUE_BITS) {
+        return malformed(format!(
+            "{} colour base bits in the stream, which has planes for {most}",
+            c.base_bits
+        ));
+    }
+    let mut totals = [0u64; 2];
+    for run in &c.runs {
+        for (total, &n) in totals.iter_mut().zip(run) {
+            *total += n as u64;
+        }
+    }
+    if totals.iter().any(|&t| t > u32::MAX as u64) {
+        return malformed("colour interleaving beyond 4 GiB".into());
     }
     Ok(())
 }
@@ -538,6 +658,9 @@ fn check_header(h: &Header, limits: &Limits) -> Result<()> {
                 params.base_bits
             ),
         });
+    }
+    if let Some(colour) = &h.colour {
+        check_colour(colour, h.level)?;
     }
     if !(h.step.is_finite() && h.step > 0.0 && h.origin.iter().all(|x| x.is_finite())) {
         return Err(Error::Malformed {

@@ -16,6 +16,7 @@ fn sample() -> (Header, BaseSection) {
         passes: 14,
         flags: 10,
         holds: vec![[3, 9], [9, 12], [300, 70_000]],
+        colour: None,
     };
     // 14 planes at level 3 leave room for the low 10 bits in the
     // stream; the flags say it holds them all.
@@ -164,7 +165,15 @@ fn impossible_base_bits_and_unknown_flags_are_refused() {
         Err(Error::Malformed { what }) => assert!(what.contains("at level 3"), "{what}"),
         other => panic!("{other:?}"),
     }
-    for flags in [0x40 | 10, 0x80 | 10, 1 << 31] {
+    let colourless = Header {
+        flags: COLOUR | 10,
+        ..header.clone()
+    };
+    match write(&colourless, &base, b"") {
+        Err(Error::Malformed { what }) => assert!(what.contains("colour header"), "{what}"),
+        other => panic!("{other:?}"),
+    }
+    for flags in [0x80 | 10, 0x100 | 10, 1 << 31] {
         let header = Header {
             flags,
             ..header.clone()
@@ -229,4 +238,82 @@ fn absurd_sizes_are_refused() {
         read(&bytes, &Limits::DEFAULT),
         Err(Error::Limit { .. })
     ));
+}
+
+/// A colour header comes back as written after the holds; one that asks
+/// for impossible planes, weights or runs is refused, and so is a cut
+/// inside it.
+#[test]
+fn colour_headers_round_trip_and_bad_ones_are_refused() {
+    let (header, base) = sample();
+    let colour = ColourHeader {
+        planes: 18,
+        passes: 18,
+        weight_bits: 1,
+        luma_bits: 1,
+        base_bits: 12,
+        runs: vec![[100, 40], [0, 7], [900, 0]],
+    };
+    let coloured = Header {
+        flags: header.flags | COLOUR,
+        colour: Some(colour.clone()),
+        ..header.clone()
+    };
+    let bytes = write(&coloured, &base, b"stream").unwrap();
+    let c = read(&bytes, &Limits::DEFAULT).unwrap();
+    assert_eq!(c.header, coloured);
+    assert_eq!(c.stream, b"stream");
+    let bad = [
+        ColourHeader {
+            planes: 60,
+            ..colour.clone()
+        },
+        ColourHeader {
+            passes: 19,
+            ..colour.clone()
+        },
+        ColourHeader {
+            luma_bits: 9,
+            ..colour.clone()
+        },
+        ColourHeader {
+            base_bits: 20,
+            ..colour.clone()
+        },
+        ColourHeader {
+            runs: vec![[u32::MAX, 1], [1, 1]],
+            ..colour.clone()
+        },
+    ];
+    for (i, colour) in bad.into_iter().enumerate() {
+        let bytes = encode_header(&Header {
+            colour: Some(colour),
+            ..coloured.clone()
+        })
+        .unwrap();
+        let mut file = MAGIC.to_vec();
+        file.push(VERSION);
+        file.extend_from_slice(&(bytes.len() as u16).to_le_bytes());
+        file.extend_from_slice(&bytes);
+        file.extend_from_slice(&crc32(&file).to_le_bytes());
+        match read(&file, &Limits::DEFAULT) {
+            Err(Error::Malformed { what }) => assert!(what.contains("colour"), "case {i}: {what}"),
+            other => panic!("case {i}: {other:?}"),
+        }
+    }
+    // The flag without the header after the holds: the header ends early.
+    let bytes = encode_header(&Header {
+        colour: None,
+        ..coloured.clone()
+    })
+    .unwrap();
+    let mut file = MAGIC.to_vec();
+    file.push(VERSION);
+    file.extend_from_slice(&(bytes.len() as u16).to_le_bytes());
+    file.extend_from_slice(&bytes);
+    file.extend_from_slice(&crc32(&file).to_le_bytes());
+    match read(&file, &Limits::DEFAULT) {
+        Err(Error::Malformed { what }) => assert!(what.contains("colour header"), "{what}"),
+        other => panic!("{other:?}"),
+    }
 }

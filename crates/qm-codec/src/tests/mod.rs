@@ -2,6 +2,7 @@
 //! and decoded again, by topic. Tests of one module's parts alone stay in
 //! that module.
 
+mod colour;
 mod frames;
 mod holds;
 mod lazy;

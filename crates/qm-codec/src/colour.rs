@@ -1,0 +1,382 @@
+//! Colour: one 8-bit RGB colour per sample, coded in a bit-plane stream of
+//! its own and interleaved with the geometry's, so that every prefix of a
+//! file gives both.
+//!
+//! **Values.** A colour becomes three integers by the reversible YCoCg-R
+//! transform (luma, orange and green chroma; exact inverse), centred at
+//! `2^(VALUE_BITS - 1)` so that every value, lifted or not, lies in
+//! `0 .. 2^VALUE_BITS`: the stream then carries every bit of the base
+//! values (`qm_ezw::BaseBits::whole`) and the base section nothing, and a
+//! prefix with no colour bits yet decodes as mid grey. The values go
+//! through the same lifting as the geometry (world axes, no frames), the
+//! same trees and the same bit-plane coder. Errors in luma count about
+//! four times those of either chroma in RGB's squared error (`R = Y + Co/2
+//! - Cg/2`, `G = Y + Cg/2`, `B = Y - Co/2 - Cg/2`), so the luma gets one
+//! bit of extra weight ([`LUMA_BITS`]), as the geometry's normal does.
+//!
+//! **Interleaving.** How a byte budget is shared between geometry and
+//! colour is a rate-distortion choice, made by measurement: the encoder
+//! measures each stream at each of its pass ends (the geometry with the
+//! holds' probes against the input surface, the colour against the
+//! sampled colours, each with a floor for the error it can never remove),
+//! takes each curve's upper convex hull in (bytes, dB) and merges the
+//! hulls' segments by decreasing slope. Each byte thus goes where it buys
+//! the most decibels, geometry's or colour's: at any cut the sum of the
+//! two PSNRs is as high as whole segments allow, which is to say the
+//! product of the two mean squared errors as low (no exchange rate
+//! between millimetres and colour levels is needed). The header's runs
+//! ([`ColourHeader::runs`]) record the merged order.
+
+use qm_ezw::{BaseBits, Contexts, Weighting, ZeroTree};
+use qm_lift::{Coord, Layout, Lifting, UpdateRule};
+
+use crate::container::ColourHeader;
+use crate::{Error, Result};
+
+/// Bits of a colour value: every lifted value lies in `0 .. 2^VALUE_BITS`.
+pub const VALUE_BITS: u32 = 12;
+
+/// The value of no colour information: mid grey, no chroma.
+const CENTRE: i32 = 1 << (VALUE_BITS - 1);
+
+/// Extra weight, in bits, of the luma against the chroma.
+pub const LUMA_BITS: u32 = 1;
+
+/// The colour stream's weighting: one bit per level (the L2 norm of the
+/// basis functions, as the geometry's), the luma's extra bit.
+pub(crate) const WEIGHTING: Weighting = Weighting::LEVELS.with_normal_bits(LUMA_BITS);
+
+/// The error, in squared 8-bit levels per channel, that a lossless colour
+/// stream keeps: the rounding to 8 bits.
+const ROUNDING_ERROR: f64 = 1.0 / 12.0;
+
+/// The value of an 8-bit sRGB colour: YCoCg-R, centred.
+pub fn to_value(rgb: [u8; 3]) -> Coord {
+    let [r, g, b] = rgb.map(i32::from);
+    let co = r - b;
+    let t = b + (co >> 1);
+    let cg = g - t;
+    let y = t + (cg >> 1);
+    [y - 128 + CENTRE, co + CENTRE, cg + CENTRE]
+}
+
+/// The colour of a value, clamped to 8 bits: the exact inverse of
+/// [`to_value`] on its values.
+pub fn from_value(v: Coord) -> [u8; 3] {
+    let [y, co, cg] = [v[0] + 128 - CENTRE, v[1] - CENTRE, v[2] - CENTRE];
+    let t = y - (cg >> 1);
+    let g = cg + t;
+    let b = t - (co >> 1);
+    let r = b + co;
+    [r, g, b].map(|x| x.clamp(0, 255) as u8)
+}
+
+/// A coded colour stream and its measured errors.
+#[derive(Clone, Debug)]
+pub(crate) struct ColourCode {
+    /// The arithmetic-coded stream.
+    pub bytes: Vec<u8>,
+    /// Its parameters, for the header.
+    pub header: ColourHeader,
+    /// Stream bytes at the end of each pass.
+    pub pass_ends: Vec<usize>,
+    /// Mean squared error per channel (8-bit levels, RGB) with no pass,
+    /// then after each pass, each with the floor added.
+    pub errors: Vec<f64>,
+}
+
+/// Codes `colours`, one per sample of `layout`, lifted with `update`.
+pub(crate) fn encode(
+    layout: &Layout,
+    update: UpdateRule,
+    colours: &[[u8; 3]],
+) -> Result<ColourCode> {
+    if colours.len() != layout.sample_count() {
+        return Err(Error::Setting {
+            what: "colours (one per sample)",
+            value: colours.len() as u64,
+            min: layout.sample_count() as u64,
+            max: layout.sample_count() as u64,
+        });
+    }
+    let lifting = Lifting::new(layout, update);
+    let mut data: Vec<Coord> = colours.iter().map(|&c| to_value(c)).collect();
+    lifting.forward(&mut data);
+    let tree = ZeroTree::new(layout);
+    let coefs = tree.gather(&data);
+    let values = &data[..layout.base().vertex_count() as usize];
+    let range = 0..1 << VALUE_BITS;
+    if let Some(&x) = values.iter().flatten().find(|x| !range.contains(*x)) {
+        // Lifted colours are weighted means: a value this far out is a bug.
+        return Err(Error::Malformed {
+            what: format!("lifted base colour value {x} beyond {VALUE_BITS} bits"),
+        });
+    }
+    let base = BaseBits {
+        values,
+        most: VALUE_BITS,
+        whole: true,
+    };
+    let encoded = qm_ezw::encode(
+        &tree,
+        &coefs,
+        Some(base),
+        WEIGHTING,
+        Contexts::Neighbours,
+        None,
+    );
+    let params = encoded.params;
+    let header = ColourHeader {
+        planes: params.planes as u8,
+        passes: params.passes as u8,
+        weight_bits: WEIGHTING.bits_per_level as u8,
+        luma_bits: WEIGHTING.normal_bits as u8,
+        base_bits: params.base_bits as u8,
+        runs: Vec::new(),
+    };
+    // The floor: what the lossless stream keeps (rounding), and what the
+    // samples miss between them, taken as what dropping the finest level
+    // of details would cost.
+    let floor = ROUNDING_ERROR
+        + if layout.level() == 0 {
+            0.0
+        } else {
+            let mut coarse = data.clone();
+            for k in tree.level_range(layout.level()) {
+                coarse[tree.samples()[k] as usize] = [0; 3];
+            }
+            lifting.inverse(&mut coarse);
+            mean_squared(&coarse, colours)
+        };
+    let mut errors = Vec::with_capacity(params.passes as usize + 1);
+    let mut decode_tree = ZeroTree::new(layout);
+    let mut checkpoint = None;
+    let mut values = Vec::new();
+    for passes in 0..=params.passes {
+        let end = match passes {
+            0 => 0,
+            k => encoded.pass_ends[k as usize - 1],
+        };
+        let (decoded, next) = qm_ezw::decode_resuming(
+            &mut decode_tree,
+            params,
+            &encoded.bytes[..end],
+            Some(passes),
+            checkpoint.take(),
+        );
+        checkpoint = next;
+        fill(layout, &decode_tree, &decoded, &mut values);
+        lifting.inverse(&mut values);
+        errors.push(mean_squared(&values, colours) + floor);
+    }
+    Ok(ColourCode {
+        bytes: encoded.bytes,
+        header,
+        pass_ends: encoded.pass_ends,
+        errors,
+    })
+}
+
+/// Mean squared RGB error per channel of `values` against `colours`.
+fn mean_squared(values: &[Coord], colours: &[[u8; 3]]) -> f64 {
+    let sum: f64 = (values.iter().zip(colours))
+        .map(|(&v, c)| {
+            let d = from_value(v);
+            (0..3)
+                .map(|k| (d[k] as f64 - c[k] as f64).powi(2))
+                .sum::<f64>()
+        })
+        .sum();
+    sum / (3 * colours.len().max(1)) as f64
+}
+
+/// The colour values of a decode: the base values from the stream's low
+/// bits (their high parts are zero), the details at their samples,
+/// numbered as `layout`'s (at least as fine as `tree`'s).
+pub(crate) fn fill(
+    layout: &Layout,
+    tree: &ZeroTree,
+    decoded: &qm_ezw::Decoded,
+    values: &mut Vec<Coord>,
+) {
+    values.clear();
+    values.resize(layout.sample_count(), [0; 3]);
+    let base = (layout.base().vertex_count() as usize).min(decoded.base_low.len());
+    values[..base].copy_from_slice(&decoded.base_low[..base]);
+    let (from, to) = (tree.numbering(), layout.numbering());
+    let samples = tree.samples();
+    for e in &decoded.nonzero {
+        let s = from.refine(samples[e.node as usize], to);
+        values[s as usize][e.coord as usize] = e.value;
+    }
+}
+
+/// The interleaving of two streams by their measured curves: `geometry`
+/// and `colour` each list (stream bytes, mean squared error) at zero bytes
+/// and at each pass end, bytes increasing; the last point ends the
+/// stream. Runs as [`ColourHeader::runs`] (see the module docs).
+pub(crate) fn interleave(geometry: &[(usize, f64)], colour: &[(usize, f64)]) -> Vec<[u32; 2]> {
+    let hulls = [hull(geometry), hull(colour)];
+    let mut next = [0usize; 2];
+    let mut runs: Vec<[u32; 2]> = Vec::new();
+    let mut last = None;
+    loop {
+        let slope = |k: usize| {
+            hulls[k]
+                .get(next[k])
+                .map(|&(bytes, gain)| gain / bytes as f64)
+        };
+        let k = match (slope(0), slope(1)) {
+            (None, None) => break,
+            (Some(_), None) => 0,
+            (None, Some(_)) => 1,
+            // Ties to the geometry.
+            (Some(g), Some(c)) => usize::from(c > g),
+        };
+        let bytes = hulls[k][next[k]].0 as u32;
+        next[k] += 1;
+        match (last, runs.last_mut()) {
+            (Some(j), Some(run)) if j == k || (k == 1 && run[1] == 0) => run[k] += bytes,
+            _ if k == 0 => runs.push([bytes, 0]),
+            _ => runs.push([0, bytes]),
+        }
+        last = Some(k);
+    }
+    runs
+}
+
+/// The segments of the upper convex hull of a curve of (bytes, mean
+/// squared error) points in (bytes, dB): each as (bytes, dB gained), in
+/// order, slopes decreasing. Segments of no bytes join the next.
+fn hull(curve: &[(usize, f64)]) -> Vec<(usize, f64)> {
+    let db = |e: f64| -10.0 * e.max(f64::MIN_POSITIVE).log10();
+    let mut points: Vec<(usize, f64)> = Vec::with_capacity(curve.len());
+    for &(bytes, error) in curve {
+        let p = (bytes, db(error));
+        if let Some(last) = points.last_mut()
+            && last.0 == p.0
+        {
+            last.1 = last.1.max(p.1);
+            continue;
+        }
+        // Drop points below the chord from their predecessor to `p`.
+        while points.len() >= 2 {
+            let (a, b) = (points[points.len() - 2], points[points.len() - 1]);
+            let cross = (b.0 - a.0) as f64 * (p.1 - a.1) - (p.0 - a.0) as f64 * (b.1 - a.1);
+            if cross >= 0.0 {
+                points.pop();
+            } else {
+                break;
+            }
+        }
+        points.push(p);
+    }
+    // A stream's end is reached even where it gains nothing.
+    points
+        .windows(2)
+        .map(|w| (w[1].0 - w[0].0, w[1].1 - w[0].1))
+        .collect()
+}
+
+/// The two streams' prefixes in the first `n` bytes of an interleaved
+/// stream: geometry, colour.
+pub(crate) fn split(runs: &[[u32; 2]], stream: &[u8]) -> (Vec<u8>, Vec<u8>) {
+    let mut parts = [Vec::new(), Vec::new()];
+    let mut at = 0;
+    'runs: for run in runs {
+        for (part, &len) in parts.iter_mut().zip(run) {
+            let end = (at + len as usize).min(stream.len());
+            part.extend_from_slice(&stream[at..end]);
+            at = end;
+            if at == stream.len() {
+                break 'runs;
+            }
+        }
+    }
+    let [geometry, colour] = parts;
+    (geometry, colour)
+}
+
+/// The two streams interleaved by `runs`.
+pub(crate) fn join(runs: &[[u32; 2]], geometry: &[u8], colour: &[u8]) -> Vec<u8> {
+    let streams = [geometry, colour];
+    let mut at = [0usize; 2];
+    let mut out = Vec::with_capacity(geometry.len() + colour.len());
+    for run in runs {
+        for k in 0..2 {
+            let end = at[k] + run[k] as usize;
+            out.extend_from_slice(&streams[k][at[k]..end]);
+            at[k] = end;
+        }
+    }
+    debug_assert_eq!(at, [geometry.len(), colour.len()]);
+    out
+}
+
+/// Bytes of the interleaved stream up to the end of byte `n` of stream
+/// `k` (0 geometry, 1 colour), where that stream's first `n` bytes are all
+/// in (0 for `n = 0`).
+pub(crate) fn offset_of(runs: &[[u32; 2]], k: usize, n: usize) -> usize {
+    if n == 0 {
+        return 0;
+    }
+    let (mut at, mut seen) = (0, 0);
+    for run in runs {
+        for (j, &len) in run.iter().enumerate() {
+            let len = len as usize;
+            if j == k && seen + len >= n {
+                return at + n - seen;
+            }
+            if j == k {
+                seen += len;
+            }
+            at += len;
+        }
+    }
+    at
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn values_are_exact_and_centred() {
+        for r in (0..=255).step_by(5) {
+            for g in (0..=255).step_by(3) {
+                for b in (0..=255).step_by(7) {
+                    let v = to_value([r, g, b]);
+                    assert_eq!(from_value(v), [r, g, b]);
+                    assert!(v.iter().all(|x| (CENTRE - 256..CENTRE + 256).contains(x)));
+                }
+            }
+        }
+        assert_eq!(from_value([CENTRE; 3]), [128; 3], "no information is grey");
+    }
+
+    #[test]
+    fn interleaving_follows_the_steepest_segments() {
+        // Geometry gains 10 dB for 100 bytes, then 10 dB for 1000; colour
+        // 10 dB for 300, then 3 dB for 100 (a dip first: hulled): the
+        // colour runs join.
+        let geometry = [(0, 1.0), (100, 0.1), (1100, 0.01)];
+        let colour = [(0, 1.0), (150, 2.0), (300, 0.1), (400, 0.05)];
+        let runs = interleave(&geometry, &colour);
+        assert_eq!(runs, vec![[100, 400], [1000, 0]]);
+        let g: Vec<u8> = (0..1100).map(|i| i as u8).collect();
+        let c: Vec<u8> = (0..400).map(|i| (i * 7) as u8).collect();
+        let joined = join(&runs, &g, &c);
+        assert_eq!(split(&runs, &joined), (g.clone(), c.clone()));
+        // Any prefix splits into prefixes.
+        for n in [0, 50, 100, 250, 400, 450, 500, 1000, 1500] {
+            let (a, b) = split(&runs, &joined[..n]);
+            assert_eq!((a.len() + b.len()), n);
+            assert!(g.starts_with(&a) && c.starts_with(&b));
+            assert!(offset_of(&runs, 0, a.len()) <= n && offset_of(&runs, 1, b.len()) <= n);
+        }
+        assert_eq!(offset_of(&runs, 0, 100), 100);
+        assert_eq!(offset_of(&runs, 1, 1), 101);
+        assert_eq!(offset_of(&runs, 0, 101), 501);
+        assert_eq!(offset_of(&runs, 1, 400), 500);
+    }
+}

@@ -1,0 +1,166 @@
+//! Colours: coded beside the geometry, back exactly at the last byte, and
+//! with the geometry at every cut.
+
+use qm_lift::SemiRegularMesh;
+use qm_lift::synthetic::bumpy_sphere as sphere;
+
+use crate::container::{COLOUR, Limits};
+use crate::decode::{DecodeOptions, Decoder, decompress};
+use crate::encode::{EncodeOptions, compress, compress_coloured};
+use crate::levels::LevelChoice;
+
+/// A smooth colour field over the mesh with a little noise.
+fn colours(mesh: &SemiRegularMesh) -> Vec<[u8; 3]> {
+    (mesh.positions().iter().enumerate())
+        .map(|(s, p)| {
+            let noise = (s as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 61;
+            let wave = |a: f64, b: f64| (128.0 + 100.0 * (a * p.x + b * p.y + p.z).sin()) as i64;
+            [wave(3.0, 1.0), wave(-2.0, 2.5), wave(0.5, -4.0)]
+                .map(|c| (c + noise as i64 - 4).clamp(0, 255) as u8)
+        })
+        .collect()
+}
+
+/// Mean squared error per channel between two colour lists.
+fn mse(a: &[[u8; 3]], b: &[[u8; 3]]) -> f64 {
+    let sum: f64 = (a.iter().zip(b))
+        .flat_map(|(x, y)| (0..3).map(move |k| (x[k] as f64 - y[k] as f64).powi(2)))
+        .sum();
+    sum / (3 * a.len()) as f64
+}
+
+#[test]
+fn colours_come_back_exactly_with_the_same_geometry() {
+    for level in [0, 2, 4] {
+        let mesh = sphere(level);
+        let rgb = colours(&mesh);
+        let plain = compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
+        let c = compress_coloured(&mesh, &rgb, &EncodeOptions::DEFAULT, None).unwrap();
+        let d = decompress(&c.bytes, &DecodeOptions::FINEST).unwrap();
+        assert_eq!(d.header.flags & COLOUR, COLOUR);
+        assert_eq!(d.values, plain.quantized, "level {level}: geometry");
+        assert_eq!(
+            d.colours.as_deref(),
+            Some(&rgb[..]),
+            "level {level}: colours"
+        );
+        assert!(c.bytes.len() > plain.bytes.len());
+        // The geometry's pass ends, moved by the colour bytes before them.
+        assert_eq!(c.pass_ends.len(), plain.pass_ends.len());
+        assert!(c.pass_ends.windows(2).all(|w| w[0] <= w[1]));
+        // A file without colours has none.
+        let d = decompress(&plain.bytes, &DecodeOptions::FINEST).unwrap();
+        assert!(d.colours.is_none());
+    }
+}
+
+/// Every cut decodes geometry and colour together: the geometry as the
+/// geometry-only file decodes its part of the cut, the colours closer and
+/// closer to the input as the cut grows (at run ends, where a stream's
+/// part is whole up to a pass end of its own).
+#[test]
+fn every_cut_gives_geometry_and_colour() {
+    let mesh = sphere(4);
+    let rgb = colours(&mesh);
+    let plain = compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
+    let c = compress_coloured(&mesh, &rgb, &EncodeOptions::DEFAULT, None).unwrap();
+    let header = decompress(&c.bytes, &DecodeOptions::FINEST).unwrap().header;
+    let runs = header.colour.clone().unwrap().runs;
+    assert!(runs.len() > 1, "interleaved: {runs:?}");
+    let start = c.header_bytes + c.base_bytes;
+    let plain_start = plain.header_bytes + plain.base_bytes;
+    let mut errors = Vec::new();
+    let mut ends = vec![0usize];
+    for run in &runs {
+        let last = *ends.last().unwrap();
+        ends.push(last + run[0] as usize);
+        ends.push(last + (run[0] + run[1]) as usize);
+    }
+    ends.dedup();
+    let stream_len = c.bytes.len() - start;
+    let cuts = (0..stream_len)
+        .step_by(stream_len / 40 + 1)
+        .chain(ends.iter().copied());
+    for cut in cuts {
+        let d = decompress(&c.bytes[..start + cut], &DecodeOptions::FINEST).unwrap();
+        let (geometry, _) = crate::colour::split(&runs, &c.bytes[start..start + cut]);
+        let mut file = plain.bytes[..plain_start].to_vec();
+        file.extend_from_slice(&geometry);
+        let g = decompress(&file, &DecodeOptions::FINEST).unwrap();
+        assert_eq!(d.values, g.values, "cut {cut}: the geometry of its part");
+        let colours = d.colours.unwrap();
+        assert_eq!(colours.len(), rgb.len());
+        if ends.contains(&cut) {
+            errors.push(mse(&colours, &rgb));
+        }
+    }
+    assert_eq!(*errors.last().unwrap(), 0.0);
+    for w in errors.windows(2) {
+        assert!(w[1] <= w[0] * 1.05 + 1e-9, "colour error rose: {errors:?}");
+    }
+    assert!(
+        errors[0] > 100.0,
+        "a cut before the colour is grey: {errors:?}"
+    );
+}
+
+/// A decoder fed longer and longer cuts, resuming, at the level it
+/// chooses, gives what decompressing each cut gives, colours and all.
+#[test]
+fn incremental_decoding_with_colours_equals_decompress() {
+    let mesh = sphere(4);
+    let rgb = colours(&mesh);
+    let c = compress_coloured(&mesh, &rgb, &EncodeOptions::DEFAULT, None).unwrap();
+    let mut decoder = Decoder::new(&c.bytes, &Limits::DEFAULT).unwrap();
+    let start = decoder.stream_start();
+    let options = DecodeOptions::DEFAULT;
+    let mut values = Vec::new();
+    for cut in (start..=c.bytes.len()).step_by(97).chain([c.bytes.len()]) {
+        let (status, _) =
+            decoder.decode_choosing(&c.bytes[start..cut], &options, &mut values, true);
+        let d = decompress(&c.bytes[..cut], &options).unwrap();
+        assert_eq!(status.level, d.level, "cut {cut}");
+        let colours = decoder.colours().unwrap();
+        assert_eq!(Some(colours), d.colours.as_deref(), "cut {cut}");
+        assert_eq!(colours.len(), d.level_mesh().0.len(), "cut {cut}");
+        assert_eq!(status.decoded_bytes, d.decoded_stream_bytes, "cut {cut}");
+    }
+    let d = decompress(&c.bytes, &options.with_level(LevelChoice::Fixed(2))).unwrap();
+    assert_eq!(d.colours.as_ref().unwrap().len(), d.level_mesh().0.len());
+}
+
+/// A budget cuts the interleaved file; colours from the wrong mesh are a
+/// setting error.
+#[test]
+fn budgets_and_wrong_colour_counts() {
+    let mesh = sphere(3);
+    let rgb = colours(&mesh);
+    let options = EncodeOptions::DEFAULT.with_max_bytes(Some(1500));
+    let c = compress_coloured(&mesh, &rgb, &options, None).unwrap();
+    assert!(c.bytes.len() <= 1500);
+    let d = decompress(&c.bytes, &DecodeOptions::FINEST).unwrap();
+    assert_eq!(d.colours.unwrap().len(), rgb.len());
+    let e = compress_coloured(&mesh, &rgb[1..], &EncodeOptions::DEFAULT, None).unwrap_err();
+    assert!(e.to_string().contains("colours"), "{e}");
+}
+
+/// A stream decoder fed a coloured file in pieces keeps asking for bytes
+/// until the colours are whole too, and ends with them exact.
+#[test]
+fn a_stream_decoder_waits_for_the_last_colour_byte() {
+    let mesh = sphere(3);
+    let rgb = colours(&mesh);
+    let c = compress_coloured(&mesh, &rgb, &EncodeOptions::DEFAULT, None).unwrap();
+    let mut decoder = crate::StreamDecoder::new(DecodeOptions::FINEST);
+    for piece in c.bytes.chunks(211) {
+        assert!(decoder.wants_more());
+        decoder.push(piece).unwrap();
+        if decoder.ready() {
+            decoder.refine().unwrap();
+            let mesh = decoder.mesh().unwrap();
+            assert_eq!(mesh.colours().unwrap().len(), mesh.vertex_count());
+        }
+    }
+    assert!(!decoder.wants_more());
+    assert_eq!(decoder.mesh().unwrap().colours(), Some(&rgb[..]));
+}
