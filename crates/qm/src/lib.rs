@@ -194,6 +194,12 @@ impl Decoded {
     pub fn psnr_estimate(&self) -> f64 {
         self.raw.estimate.psnr_db(self.raw.level)
     }
+
+    /// For a file with colours: one 8-bit sRGB colour per vertex of
+    /// [`Decoded::mesh`].
+    pub fn colours(&self) -> Option<&[[u8; 3]]> {
+        self.raw.colours.as_deref()
+    }
 }
 
 /// Decompresses `.qm` bytes; any cut after the base mesh is fine (a cut
