@@ -869,7 +869,10 @@ fn distance_reports_colour_psnr_when_both_meshes_have_colours() {
     assert!(v["psnr_db"].is_null(), "the geometry's, still there: {v}");
 
     // One mesh without colour: no colour at all, in text or JSON.
-    for args in [vec!["distance", "a.ply", "plain.ply"], vec!["distance", "plain.ply", "a.ply", "--json"]] {
+    for args in [
+        vec!["distance", "a.ply", "plain.ply"],
+        vec!["distance", "plain.ply", "a.ply", "--json"],
+    ] {
         let out = qm(&[&args[..], &samples].concat(), d);
         assert!(out.status.success(), "{}", stderr(&out));
         let text = String::from_utf8(out.stdout).unwrap();

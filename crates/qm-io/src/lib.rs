@@ -689,7 +689,7 @@ mod tests {
     fn coloured_meshes_round_trip() {
         let mesh = awkward_mesh();
         let colours: Vec<[u8; 3]> = (0..mesh.positions.len() as u8)
-            .map(|k| [k * 51, 255 - k * 37, (k * 89) % 251])
+            .map(|k| [k * 51, 255 - k * 37, k.wrapping_mul(89)])
             .collect();
         let dir = tempfile::tempdir().unwrap();
         for name in ["c.ply", "c.obj"] {
@@ -726,11 +726,21 @@ mod tests {
         let path = dir.path().join("few.ply");
         let err = write_coloured_mesh(&path, &mesh, &[[0; 3]; 4]).unwrap_err();
         let text = err.to_string();
-        assert!(text.contains("few.ply") && text.contains("4 colours for 5 vertices"), "{text}");
+        assert!(
+            text.contains("few.ply") && text.contains("4 colours for 5 vertices"),
+            "{text}"
+        );
         assert!(!path.exists());
-        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 0, "no temporary file");
+        assert_eq!(
+            fs::read_dir(dir.path()).unwrap().count(),
+            0,
+            "no temporary file"
+        );
         let err = write_coloured_mesh_to(&mut Vec::new(), Format::Obj, &mesh, &[]).unwrap_err();
-        assert!(err.to_string().contains("0 colours for 5 vertices"), "{err}");
+        assert!(
+            err.to_string().contains("0 colours for 5 vertices"),
+            "{err}"
+        );
     }
 
     fn points(n: usize) -> PolyMesh {

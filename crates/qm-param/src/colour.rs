@@ -93,11 +93,8 @@ impl<'a> ColourSurface<'a> {
     /// flat colours alone do not count: most OBJ files name a default grey
     /// material.
     pub fn has_appearance(asset: &Asset) -> bool {
-        let textured = asset.tex_coords.is_some()
-            && asset
-                .materials
-                .iter()
-                .any(|m| image_of(m).is_some());
+        let textured =
+            asset.tex_coords.is_some() && asset.materials.iter().any(|m| image_of(m).is_some());
         asset.colors.is_some() || textured
     }
 
@@ -154,7 +151,9 @@ impl<'a> ColourSurface<'a> {
             let first = self.first_corners[face] as usize;
             let corners = [first, first + k + 1, first + k + 2].map(|c| uv.get(c));
             if let [Some(a), Some(b), Some(c)] = corners {
-                let at = |i: usize| w[0] * f64::from(a[i]) + w[1] * f64::from(b[i]) + w[2] * f64::from(c[i]);
+                let at = |i: usize| {
+                    w[0] * f64::from(a[i]) + w[1] * f64::from(b[i]) + w[2] * f64::from(c[i])
+                };
                 let texel = bilinear(image, at(0), at(1));
                 return std::array::from_fn(|i| texel[i] * f64::from(material.base_color[i]));
             }
@@ -267,7 +266,10 @@ fn bilinear(image: &Image, u: f64, v: f64) -> [f64; 3] {
         [0, 1, 2].map(|c| f64::from(rgba[c]) / 255.0)
     };
     let (a, b) = (texel(x0, y0), texel(x0.wrapping_add(1), y0));
-    let (c, d) = (texel(x0, y0.wrapping_add(1)), texel(x0.wrapping_add(1), y0.wrapping_add(1)));
+    let (c, d) = (
+        texel(x0, y0.wrapping_add(1)),
+        texel(x0.wrapping_add(1), y0.wrapping_add(1)),
+    );
     std::array::from_fn(|k| {
         let top = a[k] + (b[k] - a[k]) * fx;
         let bottom = c[k] + (d[k] - c[k]) * fx;

@@ -526,10 +526,15 @@ mod tests {
             // at the barycentric coordinates it names.
             let located = indexed.locate(q);
             assert_eq!(located.point, closest.project(q));
-            let corners = triangles.triangles[located.triangle].map(|i| mesh.positions[i as usize] - origin);
+            let corners =
+                triangles.triangles[located.triangle].map(|i| mesh.positions[i as usize] - origin);
             let w = located.barycentric;
             let rebuilt = corners[0] * w[0] + corners[1] * w[1] + corners[2] * w[2];
-            assert!((rebuilt - located.point).length() <= 1e-12, "{rebuilt} against {located:?}");
+            // (Needle triangles lose a few digits to the Gram determinant.)
+            assert!(
+                (rebuilt - located.point).length() <= 1e-10,
+                "{rebuilt} against {located:?}"
+            );
             let every = triangles
                 .triangles
                 .iter()

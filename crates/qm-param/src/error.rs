@@ -53,10 +53,7 @@ pub enum Error {
     /// whose pixels do not match its size); `mesh` as for
     /// [`Error::NoFaces`]. The readers never return such an asset.
     #[error("{}appearance does not fit the mesh: {problem}", MeshPrefix(*mesh))]
-    Appearance {
-        mesh: Option<Side>,
-        problem: String,
-    },
+    Appearance { mesh: Option<Side>, problem: String },
     /// [`crate::distance::DistanceOptions::samples`] is 0.
     #[error("the sample count must be at least 1")]
     NoSamples,

@@ -104,8 +104,14 @@ fn a_texture_gives_its_texels_at_their_centres() {
     let mean = |a: [u8; 3], b: [u8; 3]| {
         std::array::from_fn(|c| ((f64::from(a[c]) + f64::from(b[c])) / 2.0).round() as u8)
     };
-    assert_eq!(surface.colour_at(v(0.25, 0.875)), mean(texel(0, 0), texel(1, 0)));
-    assert_eq!(surface.colour_at(v(0.0, 0.875)), mean(texel(3, 0), texel(0, 0)));
+    assert_eq!(
+        surface.colour_at(v(0.25, 0.875)),
+        mean(texel(0, 0), texel(1, 0))
+    );
+    assert_eq!(
+        surface.colour_at(v(0.0, 0.875)),
+        mean(texel(3, 0), texel(0, 0))
+    );
 
     // Twice across: the right half repeats the image. A factor scales it.
     let asset = textured_square(2.0, [1.0, 0.5, 1.0, 1.0]);
@@ -290,5 +296,8 @@ fn a_colour_metric_sees_a_recoloured_half() {
     // RMS over the channels is 255 sqrt(mean over the square) =
     // 255 sqrt((0.2^2 + 0.4^2 + 0.6^2) / 3 / 6 / 2).
     let expected = 255.0 * ((0.04f64 + 0.16 + 0.36) / 36.0).sqrt();
-    assert!((report.rms - expected).abs() < 0.02 * expected, "{report:?} {expected}");
+    assert!(
+        (report.rms - expected).abs() < 0.02 * expected,
+        "{report:?} {expected}"
+    );
 }
