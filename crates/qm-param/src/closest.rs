@@ -226,7 +226,7 @@ pub(crate) fn barycentric(q: DVec3, [a, b, c]: [DVec3; 3]) -> [f64; 3] {
     let (d00, d01, d11) = (v0.dot(v0), v0.dot(v1), v1.dot(v1));
     let (d20, d21) = (v2.dot(v0), v2.dot(v1));
     let denominator = d00 * d11 - d01 * d01;
-    if !(denominator > 0.0) {
+    if denominator.is_nan() || denominator <= 0.0 {
         return [1.0, 0.0, 0.0];
     }
     let v = ((d11 * d20 - d01 * d21) / denominator).max(0.0);

@@ -27,7 +27,7 @@
 //! difference is small. Alpha is ignored. The result is rounded to 8 bits a
 //! channel.
 //!
-//! [`colour_distance`] compares two assets' colours as [`distance()`]
+//! [`colour_distance`] compares two assets' colours as [`distance()`](crate::distance())
 //! compares their surfaces, at the very same area-uniform samples: a sample
 //! on `A` has its own colour (interpolated on `A` at the sample), `B`'s
 //! colour is taken at `B`'s point closest to it, and the one-sided figure is
