@@ -806,3 +806,76 @@ fn compress_names_every_attribute_it_cannot_carry() {
         }
     }
 }
+
+/// An ASCII PLY of the unit square as two triangles, its corners coloured
+/// `colours` (8-bit RGB) unless there are none.
+fn square_ply(colours: Option<[[u8; 3]; 4]>) -> String {
+    let properties = if colours.is_some() {
+        "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+    } else {
+        ""
+    };
+    let mut text = format!(
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+         property float z\n{properties}element face 2\nproperty list uchar int vertex_indices\n\
+         end_header\n"
+    );
+    for (k, (x, y)) in [(0, 0), (1, 0), (1, 1), (0, 1)].into_iter().enumerate() {
+        text += &format!("{x} {y} 0");
+        if let Some(colours) = colours {
+            let [r, g, b] = colours[k];
+            text += &format!(" {r} {g} {b}");
+        }
+        text += "\n";
+    }
+    text + "3 0 1 2\n3 0 2 3\n"
+}
+
+#[test]
+fn distance_reports_colour_psnr_when_both_meshes_have_colours() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let colours = [[200, 30, 40], [20, 180, 60], [90, 90, 230], [120, 60, 10]];
+    let shifted = colours.map(|c| c.map(|x| x + 10));
+    std::fs::write(d.join("a.ply"), square_ply(Some(colours))).unwrap();
+    std::fs::write(d.join("b.ply"), square_ply(Some(shifted))).unwrap();
+    std::fs::write(d.join("plain.ply"), square_ply(None)).unwrap();
+    let samples = ["--samples", "20000"];
+
+    let out = qm(&[&["distance", "a.ply", "b.ply"][..], &samples].concat(), d);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8(out.stdout).unwrap();
+    // Every channel 10 apart: RMS 10, PSNR 20 log10(25.5), beside the
+    // geometric PSNR (infinite: the same surface).
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[3], "      psnr: inf dB", "{text}");
+    assert!(
+        lines[4].starts_with("    colour: psnr 28.131 dB, rms 10.0000 (8-bit RGB; "),
+        "{text}"
+    );
+
+    let out = qm(
+        &[&["distance", "a.ply", "b.ply", "--json"][..], &samples].concat(),
+        d,
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let colour = &v["colour"];
+    assert_eq!(colour["rms"], 10.0, "{v}");
+    for side in ["a_to_b", "b_to_a"] {
+        assert_eq!(colour[side]["rms"], 10.0, "{v}");
+        let psnr = colour[side]["psnr_db"].as_f64().unwrap();
+        assert!((psnr - 20.0 * 25.5f64.log10()).abs() < 1e-9, "{v}");
+    }
+    assert!(v["psnr_db"].is_null(), "the geometry's, still there: {v}");
+
+    // One mesh without colour: no colour at all, in text or JSON.
+    for args in [
+        vec!["distance", "a.ply", "plain.ply"],
+        vec!["distance", "plain.ply", "a.ply", "--json"],
+    ] {
+        let out = qm(&[&args[..], &samples].concat(), d);
+        assert!(out.status.success(), "{}", stderr(&out));
+        let text = String::from_utf8(out.stdout).unwrap();
+        assert!(!text.contains("colour"), "{text}");
+    }
+}

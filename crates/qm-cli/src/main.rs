@@ -255,7 +255,8 @@ enum Command {
     },
     /// Measure the symmetric surface distance between two meshes (as Metro
     /// does): RMS, mean and Hausdorff distance, and PSNR over A's bounding
-    /// box diagonal.
+    /// box diagonal; when both carry vertex colours or a texture, also the
+    /// colour PSNR over 8-bit RGB at the same samples.
     Distance {
         /// First mesh; its bounding box diagonal is the PSNR peak.
         a: PathBuf,

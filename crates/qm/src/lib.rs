@@ -91,6 +91,17 @@ pub fn write_mesh(path: impl AsRef<Path>, mesh: &PolyMesh) -> Result<()> {
     Ok(qm_io::write_mesh(path.as_ref(), mesh)?)
 }
 
+/// [`write_mesh`] with an 8-bit sRGB colour for each vertex (PLY `uchar red
+/// green blue`, OBJ `v x y z r g b`); a colour count other than the vertex
+/// count is an error naming the file.
+pub fn write_coloured_mesh(
+    path: impl AsRef<Path>,
+    mesh: &PolyMesh,
+    colours: &[[u8; 3]],
+) -> Result<()> {
+    Ok(qm_io::write_coloured_mesh(path.as_ref(), mesh, colours)?)
+}
+
 /// Settings of [`encode`]: how to remesh and how to code.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[non_exhaustive]
