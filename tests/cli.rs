@@ -720,11 +720,10 @@ fn compress_names_every_attribute_it_cannot_carry() {
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(d.join("two.qm").exists(), "and still compresses");
     let lines = warnings(&out);
+    // The vertex colours and the materials' base colours are carried.
     let expected = [
-        "vertex colours not carried (6)",
         "texture coordinates not carried (8)",
         "textures not carried (2)",
-        "materials not carried (2)",
         "other material maps not carried (1)",
         "normals not carried (1)",
         "other properties not carried (1)",
@@ -734,7 +733,7 @@ fn compress_names_every_attribute_it_cannot_carry() {
         assert!(line.starts_with("warning: two.obj: "), "{line}");
         assert!(line.contains(fragment), "{line:?} lacks {fragment:?}");
     }
-    assert!(lines[2].contains("stone.png: not found"), "{}", lines[2]);
+    assert!(lines[1].contains("stone.png: No such file"), "{}", lines[1]);
 
     let out = qm(
         &[
@@ -754,46 +753,56 @@ fn compress_names_every_attribute_it_cannot_carry() {
     assert_eq!(
         kinds,
         [
-            "vertex_colors",
             "tex_coords",
             "textures",
-            "materials",
             "other_maps",
             "normals",
             "properties"
         ]
     );
-    assert_eq!(v["dropped"][1]["count"], 8);
+    assert_eq!(v["dropped"][0]["count"], 8);
+    assert_eq!(v["colour"], true);
     assert_eq!(
         v["bytes"].as_u64().unwrap(),
         std::fs::metadata(d.join("j.qm")).unwrap().len()
     );
 
     // The bundled assets: a textured GLB and a vertex-coloured PLY.
-    for (name, expected) in [
+    // The bundled assets: a textured GLB and a vertex-coloured PLY, with
+    // their look and without.
+    for (name, geometry_only, expected) in [
         (
             "appearance/pico-neo3-left.glb",
-            &["tex_coords", "textures", "materials", "normals"][..],
+            false,
+            &["tex_coords", "textures", "normals"][..],
         ),
-        ("appearance/greg-turk-cube.ply", &["vertex_colors", "lines"]),
-        ("quad/cc_cube.obj", &[]),
+        ("appearance/greg-turk-cube.ply", false, &["lines"]),
+        (
+            "appearance/greg-turk-cube.ply",
+            true,
+            &["vertex_colors", "lines"],
+        ),
+        ("quad/cc_cube.obj", false, &[]),
     ] {
         let file = Path::new(name).file_name().unwrap().to_str().unwrap();
         std::fs::copy(asset(name), d.join(file)).unwrap();
-        let out = qm(
-            &[
-                "compress",
-                file,
-                "-o",
-                "a.qm",
-                "--base-domain",
-                "input",
-                "--json",
-            ],
-            d,
-        );
+        let mut args = vec![
+            "compress",
+            file,
+            "-o",
+            "a.qm",
+            "--base-domain",
+            "input",
+            "--json",
+        ];
+        if geometry_only {
+            args.push("--geometry-only");
+        }
+        let out = qm(&args, d);
         let (kinds, v) = dropped_kinds(&out);
         assert_eq!(kinds, expected, "{name}");
+        let coloured = !geometry_only && !name.starts_with("quad");
+        assert_eq!(v["colour"], coloured, "{name}");
         assert_eq!(
             warnings(&out).len(),
             expected.len(),
@@ -805,6 +814,54 @@ fn compress_names_every_attribute_it_cannot_carry() {
             assert!(detail.contains("image/jpeg"), "{detail}");
         }
     }
+}
+
+/// A vertex-coloured mesh coded as itself comes back with its colours:
+/// every input vertex's colour, exactly, at the vertex where it was, in
+/// PLY and in OBJ; the GLB gets them as COLOR_0.
+#[test]
+fn colours_come_back_at_their_vertices() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::copy(asset("appearance/greg-turk-cube.ply"), d.join("cube.ply")).unwrap();
+    let out = qm(
+        &["compress", "cube.ply", "--base-domain", "input", "--quiet"],
+        d,
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let input = qm::read_asset(d.join("cube.ply"), &qm::AssetOptions::DEFAULT).unwrap();
+    let colours = input.colors.as_ref().unwrap();
+    for output in ["out.ply", "out.obj"] {
+        let out = qm(
+            &[
+                "decompress",
+                "cube.qm",
+                "--level",
+                "finest",
+                "-o",
+                output,
+                "--quiet",
+            ],
+            d,
+        );
+        assert!(out.status.success(), "{}", stderr(&out));
+        let decoded = qm::read_asset(d.join(output), &qm::AssetOptions::DEFAULT).unwrap();
+        let decoded_colours = decoded.colors.as_ref().expect("colours written");
+        assert_eq!(decoded_colours.len(), decoded.mesh.positions.len());
+        for (p, c) in input.mesh.positions.iter().zip(colours) {
+            let (k, _) = (decoded.mesh.positions.iter().enumerate())
+                .map(|(k, q)| (k, q.distance(*p)))
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .unwrap();
+            let back = decoded_colours[k].map(|x| (x * 255.0).round() as u8);
+            let want = c.map(|x| (x * 255.0).round() as u8);
+            assert_eq!(back[..3], want[..3], "{output}: vertex at {p}");
+        }
+    }
+    let out = qm(&["gltf", "cube.qm", "-o", "cube.glb", "--quiet"], d);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let glb = qm::read_asset(d.join("cube.glb"), &qm::AssetOptions::DEFAULT).unwrap();
+    assert!(glb.colors.is_some(), "COLOR_0 in the fallback");
 }
 
 /// An ASCII PLY of the unit square as two triangles, its corners coloured
