@@ -416,7 +416,6 @@ impl<'a> Knots<'a> {
         }
     }
 
-
     /// One Gauss-Seidel step at `p`: a few line-searched steps down its
     /// triangles' energy, proposed in the chart of the nearest corner of
     /// its base triangle (with the triangles unfolded around it), and, where

@@ -159,7 +159,9 @@ mod tests {
         // A small linear congruential sequence, with repeated costs.
         let mut x = 12345u64;
         let mut next = || {
-            x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (x >> 33) as u32
         };
         let first: Vec<Cost> = (0..n)
