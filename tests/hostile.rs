@@ -314,19 +314,58 @@ fn test_limits() -> qm::Limits {
     qm::Limits::DEFAULT.with_max_samples(1 << 20)
 }
 
+/// The holed grid with a colour per sample (a smooth field): a colour
+/// header, runs and two interleaved streams to corrupt.
+fn valid_coloured_qm() -> Vec<u8> {
+    let mesh = qm::read_mesh(asset("quad/holed_grid_l4.obj")).unwrap();
+    let prepared = qm::detect(&mesh).unwrap();
+    let colours: Vec<[u8; 3]> = (prepared.mesh.positions().iter())
+        .map(|p| [p.x, p.y, p.z].map(|x| (128.0 + 120.0 * (9.0 * x).sin()) as u8))
+        .collect();
+    let options = qm::EncodeOptions::DEFAULT.with_bits(10);
+    let bytes = qm::codec::compress_coloured(&prepared.mesh, &colours, &options, None)
+        .unwrap()
+        .bytes;
+    let header = qm::codec::container::read(&bytes, &qm::Limits::DEFAULT)
+        .unwrap()
+        .header;
+    assert!(
+        header.colour.is_some_and(|c| c.runs.len() > 1),
+        "interleaved"
+    );
+    bytes
+}
+
 #[test]
 fn random_corruptions_never_panic_the_library() {
-    let valid = valid_qm();
+    never_panics(&valid_qm());
+}
+
+/// As [`random_corruptions_never_panic_the_library`], with colours: what
+/// decodes has one colour per vertex.
+#[test]
+fn random_corruptions_of_a_coloured_file_never_panic() {
+    never_panics(&valid_coloured_qm());
+}
+
+/// 1,000 corruptions of `valid` decode or fail with a one-line error, never
+/// a panic, each within 5 s.
+fn never_panics(valid: &[u8]) {
     let options = qm::DecodeOptions::default().with_limits(test_limits());
     assert!(qm::codec::decompress(&valid, &options).is_ok());
     let (mut ok, mut err, mut truncated) = (0, 0, 0);
     let mut panics = Vec::new();
     let mut slowest = Duration::ZERO;
     for seed in 0..1000u64 {
-        let bytes = corrupt(&valid, seed);
+        let bytes = corrupt(valid, seed);
         let start = Instant::now();
         match catch_unwind(AssertUnwindSafe(|| qm::codec::decompress(&bytes, &options))) {
-            Ok(Ok(_)) => ok += 1,
+            Ok(Ok(d)) => {
+                ok += 1;
+                if let Some(colours) = &d.colours {
+                    assert_eq!(colours.len(), d.level_mesh().0.len(), "seed {seed}");
+                }
+            }
             Ok(Err(e)) => {
                 err += 1;
                 truncated += usize::from(e.is_truncated());
