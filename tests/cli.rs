@@ -858,6 +858,16 @@ fn colours_come_back_at_their_vertices() {
             assert_eq!(back[..3], want[..3], "{output}: vertex at {p}");
         }
     }
+    let out = qm(&["info", "cube.qm", "--json"], d);
+    let info: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let stream = info["stream_bytes"].as_u64().unwrap();
+    let colour = &info["colour"];
+    assert!(colour["runs"].as_u64().unwrap() >= 1, "{info}");
+    assert_eq!(
+        colour["stream_bytes"].as_u64().unwrap()
+            + colour["geometry_stream_bytes"].as_u64().unwrap(),
+        stream
+    );
     let out = qm(&["gltf", "cube.qm", "-o", "cube.glb", "--quiet"], d);
     assert!(out.status.success(), "{}", stderr(&out));
     let glb = qm::read_asset(d.join("cube.glb"), &qm::AssetOptions::DEFAULT).unwrap();

@@ -34,8 +34,22 @@ struct Info {
     faces: u64,
     bbox_min: [f64; 3],
     step: f64,
+    /// For a file with colours: its colour stream.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    colour: Option<ColourInfo>,
     #[serde(skip_serializing_if = "Option::is_none")]
     levels: Option<Vec<PrefixRow>>,
+}
+
+/// A file's colour stream, as `qm info` shows it.
+#[derive(serde::Serialize)]
+struct ColourInfo {
+    /// Bytes of the whole colour stream, and of the geometry's beside it.
+    stream_bytes: u64,
+    geometry_stream_bytes: u64,
+    /// Runs the two streams are interleaved in.
+    runs: usize,
+    planes: u8,
 }
 
 /// One row of `qm info --levels`: what the prefix ending at a pass decodes to.
@@ -106,6 +120,12 @@ pub fn info(input: &Path, levels: bool, json: bool) -> Result<(), Failure> {
         faces: faces * n * n,
         bbox_min: h.origin,
         step: h.step,
+        colour: h.colour.as_ref().map(|colour| ColourInfo {
+            stream_bytes: colour.runs.iter().map(|r| r[1] as u64).sum(),
+            geometry_stream_bytes: colour.runs.iter().map(|r| r[0] as u64).sum(),
+            runs: colour.runs.len(),
+            planes: colour.planes,
+        }),
         levels,
     };
     if json {
@@ -116,12 +136,22 @@ pub fn info(input: &Path, levels: bool, json: bool) -> Result<(), Failure> {
     } else {
         let value = serde_json::to_value(&info).expect("plain data serializes");
         for (key, v) in value.as_object().expect("a struct is an object") {
-            if key != "levels" {
+            if key != "levels" && key != "colour" {
                 out!(
                     "{key:>18}: {}",
                     v.as_str().map_or(v.to_string(), str::to_string)
                 );
             }
+        }
+        if let Some(c) = &info.colour {
+            out!(
+                "{:>18}: {} bytes beside {} of geometry, in {} runs, {} planes",
+                "colour",
+                c.stream_bytes,
+                c.geometry_stream_bytes,
+                c.runs,
+                c.planes
+            );
         }
         if let Some(rows) = &info.levels {
             out!("\nwhat each prefix decodes to (level auto, estimated error):");
