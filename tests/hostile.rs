@@ -352,7 +352,7 @@ fn random_corruptions_of_a_coloured_file_never_panic() {
 /// a panic, each within 5 s.
 fn never_panics(valid: &[u8]) {
     let options = qm::DecodeOptions::default().with_limits(test_limits());
-    assert!(qm::codec::decompress(&valid, &options).is_ok());
+    assert!(qm::codec::decompress(valid, &options).is_ok());
     let (mut ok, mut err, mut truncated) = (0, 0, 0);
     let mut panics = Vec::new();
     let mut slowest = Duration::ZERO;
