@@ -193,6 +193,9 @@ struct Decoded {
     vertices: Py<PyArray2<f64>>,
     /// Quads as vertex indices, counter-clockwise, uint32, shape (m, 4).
     faces: Py<PyArray2<u32>>,
+    /// For a file with colours: one 8-bit sRGB colour per vertex, uint8,
+    /// shape (n, 3); None for a file without.
+    colors: Option<Py<PyArray2<u8>>>,
     /// The subdivision level of the mesh (0 is the base mesh).
     level: u32,
     /// The file's finest level.
@@ -307,18 +310,20 @@ fn encode<'py>(
 #[pyfunction]
 fn decode(py: Python<'_>, data: &[u8], options: &Decoding) -> PyResult<Decoded> {
     let options = options.0;
-    let (decoded, flat, quads) = py
+    let (decoded, flat, quads, colours) = py
         .detach(|| {
             let d = qm::decode(data, &options)?;
             // The arrays' contents are made here too, without the GIL.
             let flat: Vec<f64> = d.mesh.positions.iter().flat_map(|p| p.to_array()).collect();
             let quads: Vec<u32> = d.mesh.faces().flatten().copied().collect();
-            Ok::<_, qm::Error>((d, flat, quads))
+            let colours = d.colours().map(|c| c.as_flattened().to_vec());
+            Ok::<_, qm::Error>((d, flat, quads, colours))
         })
         .map_err(to_py)?;
     Ok(Decoded {
         vertices: rows(py, flat, 3).unbind(),
         faces: rows(py, quads, 4).unbind(),
+        colors: colours.map(|c| rows(py, c, 3).unbind()),
         level: decoded.level(),
         finest_level: u32::from(decoded.raw.header.level),
         passes: decoded.passes(),
@@ -524,6 +529,9 @@ impl StreamDecoder {
         Some(Decoded {
             vertices: positions_array(py, &m.positions()).unbind(),
             faces: rows(py, flat, 4).unbind(),
+            colors: m
+                .colours()
+                .map(|c| rows(py, c.as_flattened().to_vec(), 3).unbind()),
             level: m.level(),
             finest_level: decoder.finest_level(),
             passes: m.passes(),

@@ -223,7 +223,9 @@ def decode(
       1 GiB).
 
     Returns a :class:`Decoded`: ``vertices`` (float64, ``(n, 3)``),
-    ``faces`` (uint32 quads, ``(m, 4)``), ``triangles``, ``level``,
+    ``faces`` (uint32 quads, ``(m, 4)``), ``colors`` (for a file with
+    colours, 8-bit sRGB per vertex, uint8 ``(n, 3)``; else None),
+    ``triangles``, ``level``,
     ``passes``, ``truncated``, ``error`` and ``psnr_db`` (the decoder's
     estimate). Raises :class:`TruncatedError` for bytes that end inside the
     header or base mesh, :class:`DataError` for bytes that are not ``.qm``
