@@ -8,7 +8,8 @@
 //     same bytes at the same level (checksum of quantized values and
 //     triangles),
 //   - the final mesh equals `qm decompress` of the whole file: same vertex
-//     positions (rounded to f32) and the same quads.
+//     positions (rounded to f32) and the same quads;
+// and a file with colours (the qm-wasm example `coloured`) shows them.
 // Screenshots go to target/web-test/; with QM_UPDATE_DOCS=1 also to
 // docs/viewer/.
 //
@@ -199,6 +200,42 @@ test('?throttle paces a fast download in the page and ?level fixes the level', {
     assert.equal(s.checksum, native.checksum);
     const passes = s.history.map((h) => h.passes);
     assert.deepEqual(passes, passes.slice().sort((x, y) => x - y), 'passes never go down');
+    assert.deepEqual(b.errors, []);
+  } finally {
+    await b.close();
+    server.stop();
+    fs.rmSync(dir, { recursive: true, force: true });
+  }
+});
+
+test('a file with colours shows them', { timeout: 120000 }, async () => {
+  const dir = scratch('coloured');
+  const file = path.join(dir, 'coloured.qm');
+  execFileSync(bins.coloured, [file]);
+  const server = await serve(file);
+  const b = await browser({ width: 320, height: 240 });
+  try {
+    await b.page.goto(server.url);
+    await b.page.waitForFunction(() => window.qmViewer?.state.done, null, { timeout: 60000 });
+    await b.page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+    // Strongly saturated pixels: the sphere's colour bands, where the
+    // viewer's own tan (saturation 0.33) has none.
+    const saturated = await b.page.evaluate(() => {
+      const canvas = document.getElementById('view');
+      const small = document.createElement('canvas');
+      small.width = 96;
+      small.height = 72;
+      const g = small.getContext('2d', { willReadFrequently: true });
+      g.drawImage(canvas, 0, 0, 96, 72);
+      const px = g.getImageData(0, 0, 96, 72).data;
+      let n = 0;
+      for (let i = 0; i < px.length; i += 4) {
+        const max = Math.max(px[i], px[i + 1], px[i + 2]);
+        if (max > 60 && max - Math.min(px[i], px[i + 1], px[i + 2]) > 0.6 * max) n++;
+      }
+      return n / (96 * 72);
+    });
+    assert.ok(saturated > 0.1, `${saturated} of the picture in saturated colours`);
     assert.deepEqual(b.errors, []);
   } finally {
     await b.close();
