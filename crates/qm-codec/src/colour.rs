@@ -78,11 +78,10 @@ pub(crate) struct ColourCode {
     pub bytes: Vec<u8>,
     /// Its parameters, for the header.
     pub header: ColourHeader,
-    /// Stream bytes at the end of each pass.
-    pub pass_ends: Vec<usize>,
-    /// Mean squared error per channel (8-bit levels, RGB) with no pass,
-    /// then after each pass, each with the floor added.
-    pub errors: Vec<f64>,
+    /// The measured curve: (stream bytes, mean squared error per channel
+    /// in 8-bit RGB levels with the floor added) at no bytes, at
+    /// [`crate::holds::cuts`] of the stream and at its end.
+    pub curve: Vec<(usize, f64)>,
 }
 
 /// Codes `colours`, one per sample of `layout`, lifted with `update`.
@@ -148,33 +147,43 @@ pub(crate) fn encode(
             lifting.inverse(&mut coarse);
             mean_squared(&coarse, colours)
         };
-    let mut errors = Vec::with_capacity(params.passes as usize + 1);
+    let len = encoded.bytes.len();
+    let mut cuts = crate::holds::cuts(len, curve_work(colours.len()), &encoded.pass_ends);
+    cuts.insert(0, 0);
     let mut decode_tree = ZeroTree::new(layout);
     let mut checkpoint = None;
     let mut values = Vec::new();
-    for passes in 0..=params.passes {
-        let end = match passes {
-            0 => 0,
-            k => encoded.pass_ends[k as usize - 1],
-        };
+    let mut curve = Vec::with_capacity(cuts.len());
+    for cut in cuts {
         let (decoded, next) = qm_ezw::decode_resuming(
             &mut decode_tree,
             params,
-            &encoded.bytes[..end],
-            Some(passes),
+            &encoded.bytes[..cut],
+            None,
             checkpoint.take(),
         );
         checkpoint = next;
         fill(layout, &decode_tree, &decoded, &mut values);
         lifting.inverse(&mut values);
-        errors.push(mean_squared(&values, colours) + floor);
+        curve.push((cut, mean_squared(&values, colours) + floor));
     }
     Ok(ColourCode {
         bytes: encoded.bytes,
         header,
-        pass_ends: encoded.pass_ends,
-        errors,
+        curve,
     })
+}
+
+/// Most cuts of each stream the interleaving measures, besides the pass
+/// ends: enough to place the runs within a pass, few enough that a small
+/// mesh does not decode thousands of times.
+const CURVE_CUTS: usize = 128;
+
+/// The sample count to give [`crate::holds::cuts`] for a curve of
+/// `samples` samples: as many cuts as the holds' work allows, at most
+/// [`CURVE_CUTS`].
+pub(crate) fn curve_work(samples: usize) -> usize {
+    samples.max(crate::holds::CUT_WORK / CURVE_CUTS)
 }
 
 /// Mean squared RGB error per channel of `values` against `colours`.

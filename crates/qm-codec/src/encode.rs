@@ -362,21 +362,16 @@ fn with_colour(
     let code = colour::encode(layout, update, colours)?;
     let start = compressed.header_bytes + compressed.base_bytes;
     let geometry = &compressed.bytes[start..];
-    let curve = |ends: &mut Vec<usize>, len: usize| {
-        ends.insert(0, 0);
-        if ends.last() != Some(&len) {
-            ends.push(len);
-        }
-    };
-    let mut ends: Vec<usize> = compressed.pass_ends.iter().map(|e| e - start).collect();
-    curve(&mut ends, geometry.len());
-    let errors = holds::errors(&compressed, probes, &ends);
-    let geometry_curve: Vec<(usize, f64)> = ends.into_iter().zip(errors).collect();
-    let mut ends = code.pass_ends.clone();
-    curve(&mut ends, code.bytes.len());
-    let last = code.errors.last().copied().unwrap_or(0.0);
-    let errors = code.errors.iter().copied().chain(std::iter::repeat(last));
-    let colour_curve: Vec<(usize, f64)> = ends.into_iter().zip(errors).collect();
+    // The geometry measured where the holds measure it, from no bytes on.
+    let samples = colour::curve_work(compressed.quantized.len());
+    let mut cuts = holds::cuts(geometry.len(), samples, &[]);
+    cuts.extend(compressed.pass_ends.iter().map(|e| e - start));
+    cuts.push(0);
+    cuts.sort_unstable();
+    cuts.dedup();
+    let errors = holds::errors(&compressed, probes, &cuts);
+    let geometry_curve: Vec<(usize, f64)> = cuts.into_iter().zip(errors).collect();
+    let colour_curve = code.curve;
     let runs = colour::interleave(&geometry_curve, &colour_curve);
     let stream = colour::join(&runs, geometry, &code.bytes);
     let c = container::read(&compressed.bytes, &Limits::NONE)?;

@@ -190,6 +190,40 @@ fn build(qm: &[u8], options: &GltfOptions) -> Result<(Value, Vec<u8>, Glb)> {
         None => extension["bufferView"] = json!(bin.add(qm.to_vec(), None)),
     }
     let (min, max) = bounds(&positions);
+    let mut attributes = json!({ "POSITION": 0, "NORMAL": 1 });
+    let mut accessors = vec![
+        json!({
+            "bufferView": position_view,
+            "componentType": FLOAT,
+            "count": vertex_count,
+            "type": "VEC3",
+            "min": min,
+            "max": max,
+        }),
+        json!({ "bufferView": normal_view, "componentType": FLOAT, "count": vertex_count, "type": "VEC3" }),
+        json!({
+            "bufferView": index_view,
+            "componentType": index_type,
+            "count": mesh.triangles().len(),
+            "type": "SCALAR",
+        }),
+    ];
+    if let Some(colours) = mesh.colours() {
+        // glTF's COLOR_0 is linear: the decoded sRGB colours converted.
+        let linear: Vec<f32> = colours
+            .iter()
+            .flatten()
+            .map(|&c| srgb_to_linear(c))
+            .collect();
+        let view = bin.add(bytes_of_f32(&linear), Some(ARRAY_BUFFER));
+        attributes["COLOR_0"] = json!(accessors.len());
+        accessors.push(json!({
+            "bufferView": view,
+            "componentType": FLOAT,
+            "count": vertex_count,
+            "type": "VEC3",
+        }));
+    }
     let document = json!({
         "asset": {
             "version": "2.0",
@@ -201,29 +235,13 @@ fn build(qm: &[u8], options: &GltfOptions) -> Result<(Value, Vec<u8>, Glb)> {
         "nodes": [{ "mesh": 0 }],
         "meshes": [{
             "primitives": [{
-                "attributes": { "POSITION": 0, "NORMAL": 1 },
+                "attributes": attributes,
                 "indices": 2,
                 "mode": 4,
                 "extensions": { EXTENSION: extension },
             }],
         }],
-        "accessors": [
-            {
-                "bufferView": position_view,
-                "componentType": FLOAT,
-                "count": vertex_count,
-                "type": "VEC3",
-                "min": min,
-                "max": max,
-            },
-            { "bufferView": normal_view, "componentType": FLOAT, "count": vertex_count, "type": "VEC3" },
-            {
-                "bufferView": index_view,
-                "componentType": index_type,
-                "count": mesh.triangles().len(),
-                "type": "SCALAR",
-            },
-        ],
+        "accessors": accessors,
         "bufferViews": bin.views,
         "buffers": [{ "byteLength": bin.data.len() }],
     });
@@ -268,6 +286,17 @@ impl Bin {
         self.data.resize(self.data.len().next_multiple_of(4), 0);
         self.views.push(view);
         self.views.len() - 1
+    }
+}
+
+/// An 8-bit sRGB channel as linear light, 0..1 (the sRGB transfer
+/// function's inverse).
+fn srgb_to_linear(c: u8) -> f32 {
+    let c = c as f32 / 255.0;
+    if c <= 0.040_45 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
     }
 }
 
@@ -364,6 +393,49 @@ mod tests {
             .flat_map(|x| x.to_le_bytes())
             .collect();
         assert_eq!(first, &expected[..]);
+    }
+
+    /// A file with colours gives the fallback a linear `COLOR_0`: the
+    /// decoder's colours of that prefix; one without has none.
+    #[test]
+    fn colours_reach_the_fallback_as_linear_color_0() {
+        let mesh = bumpy_sphere(4);
+        let colours: Vec<[u8; 3]> = (0..mesh.positions().len())
+            .map(|s| [(s % 256) as u8, 200, (s / 7 % 256) as u8])
+            .collect();
+        let qm = crate::codec::compress_coloured(&mesh, &colours, &EncodeOptions::DEFAULT, None)
+            .unwrap()
+            .bytes;
+        let glb = to_glb(&qm, &GltfOptions::default()).unwrap();
+        let (json, bin) = chunks(&glb.bytes);
+        let attributes = &json["meshes"][0]["primitives"][0]["attributes"];
+        let accessor = &json["accessors"][attributes["COLOR_0"].as_u64().unwrap() as usize];
+        assert_eq!(accessor["count"], glb.fallback_vertices);
+        assert_eq!(
+            (accessor["type"].as_str(), &accessor["componentType"]),
+            (Some("VEC3"), &json!(FLOAT))
+        );
+        let view = &json["bufferViews"][accessor["bufferView"].as_u64().unwrap() as usize];
+        let offset = view["byteOffset"].as_u64().unwrap() as usize;
+        let options = DecodeOptions::DEFAULT
+            .with_max_bytes(Some(glb.fallback_bytes))
+            .with_level(LevelChoice::Fixed(glb.fallback_level));
+        let decoded = crate::decode(&qm, &options).unwrap();
+        let first = decoded.colours().unwrap()[1];
+        let stored: Vec<f32> = bin[offset + 12..offset + 24]
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes(b.try_into().unwrap()))
+            .collect();
+        assert_eq!(stored, first.map(srgb_to_linear).to_vec());
+        assert_eq!(srgb_to_linear(255), 1.0);
+        assert!((srgb_to_linear(128) - 0.2158605).abs() < 1e-6);
+        let plain = compress(&mesh, &EncodeOptions::DEFAULT).unwrap().bytes;
+        let (json, _) = chunks(&to_glb(&plain, &GltfOptions::default()).unwrap().bytes);
+        assert!(
+            json["meshes"][0]["primitives"][0]["attributes"]
+                .get("COLOR_0")
+                .is_none()
+        );
     }
 
     #[test]
