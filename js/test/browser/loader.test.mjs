@@ -256,11 +256,11 @@ test('qm-decoder decodes on the main thread and in a module worker', { timeout: 
   assert.equal(bad.error.code, 'memory');
 });
 
-// `qm gltf` of spot.qm into the served folder, checked by Khronos's
+// `qm gltf` of spot.qm (or `source`) into the served folder, checked by Khronos's
 // glTF validator: no errors, no warnings.
-async function gltf(name, extra) {
+async function gltf(name, extra, source = spot.file) {
   const file = path.join(www, name);
-  execFileSync(bins.qm, ['gltf', spot.file, '-o', file, '--quiet', ...extra]);
+  execFileSync(bins.qm, ['gltf', source, '-o', file, '--quiet', ...extra]);
   const bytes = new Uint8Array(fs.readFileSync(file));
   const external = { externalResourceFunction: (uri) => Promise.resolve(new Uint8Array(fs.readFileSync(path.join(www, uri)))) };
   const report = name.endsWith('.gltf')
@@ -345,5 +345,11 @@ test('a coloured file: colours at every refinement, a color attribute in step', 
   }
   assert.deepEqual(r.shownColors, Array.from(colouredFile.rgb), 'linear in the geometry, the input\'s sRGB on screen');
   assert.ok(r.covered > 0.05, 'the mesh is drawn');
+  // Through qm gltf and the plugin: the material turns to vertex colours.
+  await gltf('coloured.glb', ['--fallback-level', '2'], colouredFile.file);
+  const g = await b.page.evaluate(() => window.qmTest.gltf('coloured.glb', { plugin: true, options: { level: 'finest' } }));
+  assert.equal(g.ok, true, JSON.stringify(g.error));
+  assert.equal(g.final.vertexCount, colouredFile.rgb.length / 3);
+  assert.deepEqual(g.final.color, { count: g.final.vertexCount, type: 'Uint16Array', vertexColors: true, sharedMaterialChanged: false });
   assert.deepEqual(b.errors, []);
 });

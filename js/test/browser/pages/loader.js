@@ -246,7 +246,17 @@ window.qmTest = {
       if (extension) {
         const results = await extension.done;
         await nextFrames(2);
-        final = { level: results[0].level, bytes: results[0].bytes, bytesUsed: results[0].bytesUsed, error: results[0].error, vertexCount: mesh.geometry.getAttribute('position').count, sameGeometry: results[0].geometry === mesh.geometry, ...geometryInfo(mesh.geometry) };
+        const color = mesh.geometry.getAttribute('color');
+        final = {
+          level: results[0].level,
+          bytes: results[0].bytes,
+          bytesUsed: results[0].bytesUsed,
+          error: results[0].error,
+          vertexCount: mesh.geometry.getAttribute('position').count,
+          sameGeometry: results[0].geometry === mesh.geometry,
+          color: color && { count: color.count, type: color.array.constructor.name, vertexColors: mesh.material.vertexColors, sharedMaterialChanged: material.vertexColors },
+          ...geometryInfo(mesh.geometry),
+        };
       }
       return { ok: true, fallback, fallbackCovered, final, updates, covered: covered() };
     } catch (e) {
