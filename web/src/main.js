@@ -337,8 +337,9 @@ function bench(runs = 9) {
   };
 }
 
-// The last rendered picture, shrunk to `width` pixels wide, as grey levels.
-function capture(width = 192) {
+// The last rendered picture, shrunk to `width` pixels wide, as grey levels
+// (and with `colours` its RGBA bytes too).
+function capture(width = 192, colours = false) {
   const height = Math.round((width * canvas.height) / canvas.width);
   const small = document.createElement('canvas');
   small.width = width;
@@ -350,7 +351,7 @@ function capture(width = 192) {
   for (let i = 0; i < grey.length; i++) {
     grey[i] = Math.round((rgba[4 * i] + rgba[4 * i + 1] + rgba[4 * i + 2]) / 3);
   }
-  return { width, height, grey };
+  return { width, height, grey, ...(colours ? { rgba: Array.from(rgba) } : {}) };
 }
 
 window.qmViewer = {

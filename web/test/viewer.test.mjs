@@ -220,21 +220,13 @@ test('a file with colours shows them', { timeout: 120000 }, async () => {
     await b.page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
     // Strongly saturated pixels: the sphere's colour bands, where the
     // viewer's own tan (saturation 0.33) has none.
-    const saturated = await b.page.evaluate(() => {
-      const canvas = document.getElementById('view');
-      const small = document.createElement('canvas');
-      small.width = 96;
-      small.height = 72;
-      const g = small.getContext('2d', { willReadFrequently: true });
-      g.drawImage(canvas, 0, 0, 96, 72);
-      const px = g.getImageData(0, 0, 96, 72).data;
-      let n = 0;
-      for (let i = 0; i < px.length; i += 4) {
-        const max = Math.max(px[i], px[i + 1], px[i + 2]);
-        if (max > 60 && max - Math.min(px[i], px[i + 1], px[i + 2]) > 0.6 * max) n++;
-      }
-      return n / (96 * 72);
-    });
+    const { rgba } = await b.page.evaluate(() => window.qmViewer.capture(96, true));
+    let n = 0;
+    for (let i = 0; i < rgba.length; i += 4) {
+      const max = Math.max(rgba[i], rgba[i + 1], rgba[i + 2]);
+      if (max > 60 && max - Math.min(rgba[i], rgba[i + 1], rgba[i + 2]) > 0.6 * max) n++;
+    }
+    const saturated = n / (rgba.length / 4);
     assert.ok(saturated > 0.1, `${saturated} of the picture in saturated colours`);
     assert.deepEqual(b.errors, []);
   } finally {
