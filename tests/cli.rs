@@ -720,11 +720,10 @@ fn compress_names_every_attribute_it_cannot_carry() {
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(d.join("two.qm").exists(), "and still compresses");
     let lines = warnings(&out);
+    // The vertex colours and the materials' base colours are carried.
     let expected = [
-        "vertex colours not carried (6)",
         "texture coordinates not carried (8)",
         "textures not carried (2)",
-        "materials not carried (2)",
         "other material maps not carried (1)",
         "normals not carried (1)",
         "other properties not carried (1)",
@@ -734,7 +733,7 @@ fn compress_names_every_attribute_it_cannot_carry() {
         assert!(line.starts_with("warning: two.obj: "), "{line}");
         assert!(line.contains(fragment), "{line:?} lacks {fragment:?}");
     }
-    assert!(lines[2].contains("stone.png: not found"), "{}", lines[2]);
+    assert!(lines[1].contains("stone.png: No such file"), "{}", lines[1]);
 
     let out = qm(
         &[
@@ -754,46 +753,56 @@ fn compress_names_every_attribute_it_cannot_carry() {
     assert_eq!(
         kinds,
         [
-            "vertex_colors",
             "tex_coords",
             "textures",
-            "materials",
             "other_maps",
             "normals",
             "properties"
         ]
     );
-    assert_eq!(v["dropped"][1]["count"], 8);
+    assert_eq!(v["dropped"][0]["count"], 8);
+    assert_eq!(v["colour"], true);
     assert_eq!(
         v["bytes"].as_u64().unwrap(),
         std::fs::metadata(d.join("j.qm")).unwrap().len()
     );
 
     // The bundled assets: a textured GLB and a vertex-coloured PLY.
-    for (name, expected) in [
+    // The bundled assets: a textured GLB and a vertex-coloured PLY, with
+    // their look and without.
+    for (name, geometry_only, expected) in [
         (
             "appearance/pico-neo3-left.glb",
-            &["tex_coords", "textures", "materials", "normals"][..],
+            false,
+            &["tex_coords", "textures", "normals"][..],
         ),
-        ("appearance/greg-turk-cube.ply", &["vertex_colors", "lines"]),
-        ("quad/cc_cube.obj", &[]),
+        ("appearance/greg-turk-cube.ply", false, &["lines"]),
+        (
+            "appearance/greg-turk-cube.ply",
+            true,
+            &["vertex_colors", "lines"],
+        ),
+        ("quad/cc_cube.obj", false, &[]),
     ] {
         let file = Path::new(name).file_name().unwrap().to_str().unwrap();
         std::fs::copy(asset(name), d.join(file)).unwrap();
-        let out = qm(
-            &[
-                "compress",
-                file,
-                "-o",
-                "a.qm",
-                "--base-domain",
-                "input",
-                "--json",
-            ],
-            d,
-        );
+        let mut args = vec![
+            "compress",
+            file,
+            "-o",
+            "a.qm",
+            "--base-domain",
+            "input",
+            "--json",
+        ];
+        if geometry_only {
+            args.push("--geometry-only");
+        }
+        let out = qm(&args, d);
         let (kinds, v) = dropped_kinds(&out);
         assert_eq!(kinds, expected, "{name}");
+        let coloured = !geometry_only && !name.starts_with("quad");
+        assert_eq!(v["colour"], coloured, "{name}");
         assert_eq!(
             warnings(&out).len(),
             expected.len(),
@@ -804,5 +813,126 @@ fn compress_names_every_attribute_it_cannot_carry() {
             let detail = v["dropped"][1]["detail"].as_str().unwrap();
             assert!(detail.contains("image/jpeg"), "{detail}");
         }
+    }
+}
+
+/// A vertex-coloured mesh coded as itself comes back with its colours:
+/// every input vertex's colour, exactly, at the vertex where it was, in
+/// PLY and in OBJ; the GLB gets them as COLOR_0.
+#[test]
+fn colours_come_back_at_their_vertices() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::copy(asset("appearance/greg-turk-cube.ply"), d.join("cube.ply")).unwrap();
+    let out = qm(
+        &["compress", "cube.ply", "--base-domain", "input", "--quiet"],
+        d,
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let input = qm::read_asset(d.join("cube.ply"), &qm::AssetOptions::DEFAULT).unwrap();
+    let colours = input.colors.as_ref().unwrap();
+    for output in ["out.ply", "out.obj"] {
+        let out = qm(
+            &[
+                "decompress",
+                "cube.qm",
+                "--level",
+                "finest",
+                "-o",
+                output,
+                "--quiet",
+            ],
+            d,
+        );
+        assert!(out.status.success(), "{}", stderr(&out));
+        let decoded = qm::read_asset(d.join(output), &qm::AssetOptions::DEFAULT).unwrap();
+        let decoded_colours = decoded.colors.as_ref().expect("colours written");
+        assert_eq!(decoded_colours.len(), decoded.mesh.positions.len());
+        for (p, c) in input.mesh.positions.iter().zip(colours) {
+            let (k, _) = (decoded.mesh.positions.iter().enumerate())
+                .map(|(k, q)| (k, q.distance(*p)))
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .unwrap();
+            let back = decoded_colours[k].map(|x| (x * 255.0).round() as u8);
+            let want = c.map(|x| (x * 255.0).round() as u8);
+            assert_eq!(back[..3], want[..3], "{output}: vertex at {p}");
+        }
+    }
+    let out = qm(&["gltf", "cube.qm", "-o", "cube.glb", "--quiet"], d);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let glb = qm::read_asset(d.join("cube.glb"), &qm::AssetOptions::DEFAULT).unwrap();
+    assert!(glb.colors.is_some(), "COLOR_0 in the fallback");
+}
+
+/// An ASCII PLY of the unit square as two triangles, its corners coloured
+/// `colours` (8-bit RGB) unless there are none.
+fn square_ply(colours: Option<[[u8; 3]; 4]>) -> String {
+    let properties = if colours.is_some() {
+        "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+    } else {
+        ""
+    };
+    let mut text = format!(
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+         property float z\n{properties}element face 2\nproperty list uchar int vertex_indices\n\
+         end_header\n"
+    );
+    for (k, (x, y)) in [(0, 0), (1, 0), (1, 1), (0, 1)].into_iter().enumerate() {
+        text += &format!("{x} {y} 0");
+        if let Some(colours) = colours {
+            let [r, g, b] = colours[k];
+            text += &format!(" {r} {g} {b}");
+        }
+        text += "\n";
+    }
+    text + "3 0 1 2\n3 0 2 3\n"
+}
+
+#[test]
+fn distance_reports_colour_psnr_when_both_meshes_have_colours() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let colours = [[200, 30, 40], [20, 180, 60], [90, 90, 230], [120, 60, 10]];
+    let shifted = colours.map(|c| c.map(|x| x + 10));
+    std::fs::write(d.join("a.ply"), square_ply(Some(colours))).unwrap();
+    std::fs::write(d.join("b.ply"), square_ply(Some(shifted))).unwrap();
+    std::fs::write(d.join("plain.ply"), square_ply(None)).unwrap();
+    let samples = ["--samples", "20000"];
+
+    let out = qm(&[&["distance", "a.ply", "b.ply"][..], &samples].concat(), d);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8(out.stdout).unwrap();
+    // Every channel 10 apart: RMS 10, PSNR 20 log10(25.5), beside the
+    // geometric PSNR (infinite: the same surface).
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[3], "      psnr: inf dB", "{text}");
+    assert!(
+        lines[4].starts_with("    colour: psnr 28.131 dB, rms 10.0000 (8-bit RGB; "),
+        "{text}"
+    );
+
+    let out = qm(
+        &[&["distance", "a.ply", "b.ply", "--json"][..], &samples].concat(),
+        d,
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let colour = &v["colour"];
+    assert_eq!(colour["rms"], 10.0, "{v}");
+    for side in ["a_to_b", "b_to_a"] {
+        assert_eq!(colour[side]["rms"], 10.0, "{v}");
+        let psnr = colour[side]["psnr_db"].as_f64().unwrap();
+        assert!((psnr - 20.0 * 25.5f64.log10()).abs() < 1e-9, "{v}");
+    }
+    assert!(v["psnr_db"].is_null(), "the geometry's, still there: {v}");
+
+    // One mesh without colour: no colour at all, in text or JSON.
+    for args in [
+        vec!["distance", "a.ply", "plain.ply"],
+        vec!["distance", "plain.ply", "a.ply", "--json"],
+    ] {
+        let out = qm(&[&args[..], &samples].concat(), d);
+        assert!(out.status.success(), "{}", stderr(&out));
+        let text = String::from_utf8(out.stdout).unwrap();
+        assert!(!text.contains("colour"), "{text}");
     }
 }

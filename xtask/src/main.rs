@@ -48,6 +48,7 @@ use std::process::ExitCode;
 use qm::{DecodeOptions, EncodeOptions};
 
 mod ab;
+mod appearance;
 mod budget;
 mod corpus;
 mod curves;
@@ -78,6 +79,7 @@ fn main() -> ExitCode {
         Some("decode-time") => decode_time::run(&args[1..]),
         Some("memory") => memory::run(&args[1..]),
         Some("scale") => scale::run(&args[1..]),
+        Some("appearance") => appearance::run(&args[1..]),
         _ => Err("usage: cargo xtask pass-table [MESH ...]\n       \
                   cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]\n       \
                   cargo xtask remesh-bench [--level L] [--normal-remesh on|off] [--runs N] [--against XTASK] [MESH ...]\n       \
@@ -89,7 +91,8 @@ fn main() -> ExitCode {
                   cargo xtask valence [--max N]\n       \
                   cargo xtask decode-time FILE.qm [--runs N] [--bytes N ...]\n       \
                   cargo xtask memory [--max-level L] [MESH[:DOMAIN] ...]\n       \
-                  cargo xtask scale [--sizes 0.5M,2M,8M] [--mesh FILE] [--max-memory SIZE] [--no-draco] [--keep DIR]"
+                  cargo xtask scale [--sizes 0.5M,2M,8M] [--mesh FILE] [--max-memory SIZE] [--no-draco] [--keep DIR]\n       \
+                  cargo xtask appearance [--samples N] [FILE ...]"
             .to_string()),
     };
     match result {

@@ -153,36 +153,31 @@ pub fn info(input: &Path, levels: bool, json: bool) -> Result<(), Failure> {
 }
 
 pub fn distance(a: &Path, b: &Path, json: bool, samples: usize, seed: u64) -> Result<(), Failure> {
-    use qm::param::distance::{DistanceOptions, Side};
+    use qm::param::distance::DistanceOptions;
 
-    let mesh_a = qm::read_mesh(a).map_err(|e| Failure::about(a, e))?;
-    let mesh_b = qm::read_mesh(b).map_err(|e| Failure::about(b, e))?;
+    // Images decoded: a textured mesh's colours come from its texture.
+    let read = |path: &Path| {
+        qm::read_asset(path, &qm::AssetOptions::DEFAULT.with_images(true))
+            .map_err(|e| Failure::about(path, e))
+    };
+    let (asset_a, asset_b) = (read(a)?, read(b)?);
     let options = DistanceOptions::DEFAULT
         .with_samples(samples)
         .with_seed(seed);
-    let report = qm::param::distance(&mesh_a, &mesh_b, &options).map_err(|e| {
-        let path = match e {
-            qm::param::Error::NoFaces {
-                mesh: Some(Side::B),
-            }
-            | qm::param::Error::ZeroArea { mesh: Side::B }
-            | qm::param::Error::MissingVertex {
-                mesh: Some(Side::B),
-                ..
-            }
-            | qm::param::Error::NonFinite {
-                mesh: Some(Side::B),
-                ..
-            } => b,
-            _ => a,
-        };
-        Failure::about(path, qm::Error::from(e))
-    })?;
+    let blame = |e| blame(e, a, b);
+    let report = qm::param::distance(&asset_a.mesh, &asset_b.mesh, &options).map_err(blame)?;
+    // Only when both carry appearance; otherwise the output is geometry's
+    // alone, as it always was.
+    let colour = qm::param::colour_distance(&asset_a, &asset_b, &options).map_err(blame)?;
     if json {
-        out!(
-            "{}",
-            serde_json::to_string_pretty(&report).expect("plain data serializes")
-        );
+        let text = match &colour {
+            Some(colour) => serde_json::to_string_pretty(&WithColour {
+                geometry: &report,
+                colour,
+            }),
+            None => serde_json::to_string_pretty(&report),
+        };
+        out!("{}", text.expect("plain data serializes"));
     } else {
         let side = |name: &str, s: &qm::param::OneSided| {
             out!(
@@ -197,9 +192,53 @@ pub fn distance(a: &Path, b: &Path, json: bool, samples: usize, seed: u64) -> Re
         out!("{:>10}: {:.6e}", "mean", report.mean);
         out!("{:>10}: {:.6e}", "hausdorff", report.hausdorff);
         out!("{:>10}: {:.3} dB", "psnr", report.psnr_db);
+        if let Some(c) = &colour {
+            out!(
+                "{:>10}: psnr {:.3} dB, rms {:.4} (8-bit RGB; A -> B {:.3} dB, B -> A {:.3} dB)",
+                "colour",
+                c.psnr_db,
+                c.rms,
+                c.a_to_b.psnr_db,
+                c.b_to_a.psnr_db
+            );
+        }
         out!("{:>10}: {:.6e}", "diag", report.diag);
         side("A -> B", &report.a_to_b);
         side("B -> A", &report.b_to_a);
     }
     Ok(())
+}
+
+/// `qm distance --json` when both meshes carry colour: the geometric report's
+/// fields, then `colour`.
+#[derive(serde::Serialize)]
+struct WithColour<'a> {
+    #[serde(flatten)]
+    geometry: &'a qm::param::DistanceReport,
+    colour: &'a qm::param::ColourReport,
+}
+
+/// A distance error, named after the mesh it is about.
+fn blame(e: qm::param::Error, a: &Path, b: &Path) -> Failure {
+    use qm::param::distance::Side;
+    let path = match e {
+        qm::param::Error::NoFaces {
+            mesh: Some(Side::B),
+        }
+        | qm::param::Error::ZeroArea { mesh: Side::B }
+        | qm::param::Error::MissingVertex {
+            mesh: Some(Side::B),
+            ..
+        }
+        | qm::param::Error::NonFinite {
+            mesh: Some(Side::B),
+            ..
+        }
+        | qm::param::Error::Appearance {
+            mesh: Some(Side::B),
+            ..
+        } => b,
+        _ => a,
+    };
+    Failure::about(path, qm::Error::from(e))
 }

@@ -150,6 +150,11 @@ enum Command {
         /// bytes per hold; see docs/holds.md).
         #[arg(long)]
         no_holds: bool,
+        /// Code the geometry alone, without the input's colours or texture
+        /// (default: a mesh with vertex colours or a base colour texture
+        /// gets one colour per sample, coded with the geometry).
+        #[arg(long)]
+        geometry_only: bool,
         /// Print a JSON summary on stdout, with the list of what was not
         /// carried (`dropped`).
         #[arg(long)]
@@ -255,7 +260,8 @@ enum Command {
     },
     /// Measure the symmetric surface distance between two meshes (as Metro
     /// does): RMS, mean and Hausdorff distance, and PSNR over A's bounding
-    /// box diagonal.
+    /// box diagonal; when both carry vertex colours or a texture, also the
+    /// colour PSNR over 8-bit RGB at the same samples.
     Distance {
         /// First mesh; its bounding box diagonal is the PSNR peak.
         a: PathBuf,
@@ -336,6 +342,7 @@ fn main() -> ExitCode {
             no_frames,
             frames_from,
             no_holds,
+            geometry_only,
             json,
             quiet,
         } => {
@@ -352,7 +359,12 @@ fn main() -> ExitCode {
             if let Some(level) = frames_from {
                 options = options.with_frame_source(qm::Frames::ParentsFrom(level));
             }
-            compress(&input, output, &options, &remesh.options(), json, quiet)
+            let what = Compression {
+                options,
+                remesh: remesh.options(),
+                colour: !geometry_only,
+            };
+            compress(&input, output, &what, json, quiet)
         }
         Command::Remesh {
             input,
@@ -451,8 +463,18 @@ struct CompressSummary {
     samples: usize,
     base_quads: usize,
     level: u32,
+    /// Whether the stream carries a colour per sample.
+    colour: bool,
     /// What the stream does not carry, one entry a kind.
     dropped: Vec<DroppedEntry>,
+}
+
+/// What `qm compress` is asked to do.
+struct Compression {
+    options: qm::EncodeOptions,
+    remesh: qm::RemeshOptions,
+    /// Carry the input's colours, if it has any.
+    colour: bool,
 }
 
 /// One kind of attribute not carried.
@@ -466,20 +488,29 @@ struct DroppedEntry {
 fn compress(
     input: &Path,
     output: Option<PathBuf>,
-    options: &qm::EncodeOptions,
-    remesh_options: &qm::RemeshOptions,
+    what: &Compression,
     json: bool,
     quiet: bool,
 ) -> Result<(), Failure> {
+    let (options, remesh_options) = (&what.options, &what.remesh);
     let output = output.unwrap_or_else(|| default_output(input, "qm"));
     check_output(input, &output)?;
     let progress = Progress::new(quiet);
     progress.step("reading mesh");
-    // Images are located, not decoded: nothing uses their pixels yet.
-    let asset =
-        qm::read_asset(input, &qm::AssetOptions::DEFAULT).map_err(|e| Failure::about(input, e))?;
+    // Images are decoded only when their colours are to be carried.
+    let reading = qm::AssetOptions::DEFAULT.with_images(what.colour);
+    let mut asset = qm::read_asset(input, &reading).map_err(|e| Failure::about(input, e))?;
+    if !what.colour {
+        // Not carried: listed as the geometry-only stream's losses.
+        asset.dropped.extend(asset.held());
+        asset.colors = None;
+        asset.tex_coords = None;
+        asset.materials.clear();
+        asset.face_materials = None;
+    }
+    let coloured = qm::param::ColourSurface::has_appearance(&asset);
     let dropped = qm::not_carried(&asset);
-    let mesh = asset.mesh;
+    let mesh = &asset.mesh;
     progress.suspend(|| {
         if !quiet {
             for d in &dropped {
@@ -495,16 +526,20 @@ fn compress(
     });
     progress.step("making the mesh semi-regular (subdivision connectivity or remeshing)");
     let remeshing = |step: qm::param::Step| progress.step(format!("remeshing: {step}"));
-    let prepared = qm::prepare_reporting(&mesh, remesh_options, &remeshing)
+    let prepared = qm::prepare_reporting(mesh, remesh_options, &remeshing)
         .map_err(|e| Failure::about(input, e))?;
     progress.suspend(|| {
         if let (false, Some(r)) = (quiet, &prepared.remeshed) {
             report_remesh(input, r);
         }
     });
-    progress.step("lifting and coding");
-    let compressed =
-        qm::encode_prepared(&prepared, &mesh, options).map_err(|e| Failure::about(input, e))?;
+    progress.step(if coloured {
+        "lifting and coding, with the colours"
+    } else {
+        "lifting and coding"
+    });
+    let compressed = qm::encode_prepared_asset(&prepared, &asset, options)
+        .map_err(|e| Failure::about(input, e))?;
     progress.step("writing");
     write_atomic(&output, &compressed.bytes)?;
     progress.finish();
@@ -512,9 +547,10 @@ fn compress(
     let stream = total - compressed.header_bytes - compressed.base_bytes;
     if !quiet {
         note!(
-            "{}: {} vertices, {} base quads x level {} -> {}: {} bytes (header {}, base {}, stream {}), {} passes",
+            "{}: {} vertices{}, {} base quads x level {} -> {}: {} bytes (header {}, base {}, stream {}), {} passes",
             input.display(),
             compressed.samples,
+            if coloured { " with colours" } else { "" },
             compressed.base_quads,
             compressed.level,
             output.display(),
@@ -537,6 +573,7 @@ fn compress(
             samples: compressed.samples,
             base_quads: compressed.base_quads,
             level: compressed.level,
+            colour: coloured,
             dropped: dropped
                 .into_iter()
                 .map(|d| DroppedEntry {
@@ -643,7 +680,11 @@ fn decompress(
     progress.step("decoding");
     let decoded = qm::decode(&data, options).map_err(|e| Failure::about(input, e))?;
     progress.step("writing mesh");
-    qm::write_mesh(&output, &decoded.mesh).map_err(|e| Failure::about(&output, e))?;
+    match decoded.colours() {
+        Some(colours) => qm::write_coloured_mesh(&output, &decoded.mesh, colours),
+        None => qm::write_mesh(&output, &decoded.mesh),
+    }
+    .map_err(|e| Failure::about(&output, e))?;
     progress.finish();
     if !quiet {
         let raw = &decoded.raw;

@@ -33,7 +33,28 @@ use qm_lift::{Coord, Layout, Lifting, UpdateRule};
 use crate::container::ColourHeader;
 use crate::{Error, Result};
 
-/// Bits of a colour value: every lifted value lies in `0 .. 2^VALUE_BITS`.
+/// The reconstruction of a base value known to lie in the `2^unknown`
+/// values whose centre is `centre`: the centre of their overlap with
+/// `lo ..= hi`, or, where they miss the range, the one of them nearest to
+/// it.
+fn within_range(centre: i32, unknown: u8, (lo, hi): (i32, i32)) -> i32 {
+    if unknown == 0 {
+        return centre;
+    }
+    let from = centre - (1 << (unknown - 1));
+    let to = from + (1 << unknown) - 1;
+    let (a, b) = (from.max(lo), to.min(hi));
+    if a <= b {
+        a + (b - a) / 2
+    } else if to < lo {
+        to
+    } else {
+        from
+    }
+}
+
+/// Most bits of a colour base value less its channel's least: lifted
+/// values are local means of values that span 511 at most.
 pub const VALUE_BITS: u32 = 12;
 
 /// The value of no colour information: mid grey, no chroma.
@@ -103,17 +124,26 @@ pub(crate) fn encode(
     lifting.forward(&mut data);
     let tree = ZeroTree::new(layout);
     let coefs = tree.gather(&data);
-    let values = &data[..layout.base().vertex_count() as usize];
-    let range = 0..1 << VALUE_BITS;
-    if let Some(&x) = values.iter().flatten().find(|x| !range.contains(*x)) {
-        // Lifted colours are weighted means: a value this far out is a bug.
+    // The base values less their channel's least, in as few bits as their
+    // spread takes: no bit plane above is spent on them, and none straddles
+    // a power of two the values do not fill.
+    let base = &data[..layout.base().vertex_count() as usize];
+    let base_min: [i32; 3] = std::array::from_fn(|k| base.iter().map(|v| v[k]).min().unwrap_or(0));
+    let base_max: [i32; 3] = std::array::from_fn(|k| base.iter().map(|v| v[k]).max().unwrap_or(0));
+    let spread = (0..3).map(|k| base_max[k] - base_min[k]).max().unwrap_or(0);
+    let bits = 32 - (spread as u32).leading_zeros();
+    if bits > VALUE_BITS {
+        // Lifted colours are weighted means: a spread this wide is a bug.
         return Err(Error::Malformed {
-            what: format!("lifted base colour value {x} beyond {VALUE_BITS} bits"),
+            what: format!("lifted base colours spread over {spread}"),
         });
     }
+    let values: Vec<Coord> = (base.iter())
+        .map(|v| std::array::from_fn(|k| v[k] - base_min[k]))
+        .collect();
     let base = BaseBits {
-        values,
-        most: VALUE_BITS,
+        values: &values,
+        most: bits.max(1),
         whole: true,
     };
     let encoded = qm_ezw::encode(
@@ -131,6 +161,8 @@ pub(crate) fn encode(
         weight_bits: WEIGHTING.bits_per_level as u8,
         luma_bits: WEIGHTING.normal_bits as u8,
         base_bits: params.base_bits as u8,
+        base_min,
+        base_max,
         runs: Vec::new(),
     };
     // The floor: what the lossless stream keeps (rounding), and what the
@@ -163,7 +195,7 @@ pub(crate) fn encode(
             checkpoint.take(),
         );
         checkpoint = next;
-        fill(layout, &decode_tree, &decoded, &mut values);
+        fill(layout, &decode_tree, &decoded, &header, &mut values);
         lifting.inverse(&mut values);
         curve.push((cut, mean_squared(&values, colours) + floor));
     }
@@ -200,18 +232,32 @@ fn mean_squared(values: &[Coord], colours: &[[u8; 3]]) -> f64 {
 }
 
 /// The colour values of a decode: the base values from the stream's low
-/// bits (their high parts are zero), the details at their samples,
+/// bits (their high parts are zero), each at the centre of what its known
+/// bits leave *within the range of colour values* (a colour is never
+/// darker than black: bit-plane intervals wider than the colours' range
+/// would otherwise decode far outside it), the details at their samples,
 /// numbered as `layout`'s (at least as fine as `tree`'s).
 pub(crate) fn fill(
     layout: &Layout,
     tree: &ZeroTree,
     decoded: &qm_ezw::Decoded,
+    header: &ColourHeader,
     values: &mut Vec<Coord>,
 ) {
     values.clear();
     values.resize(layout.sample_count(), [0; 3]);
     let base = (layout.base().vertex_count() as usize).min(decoded.base_low.len());
-    values[..base].copy_from_slice(&decoded.base_low[..base]);
+    for ((v, centre), unknown) in values
+        .iter_mut()
+        .zip(&decoded.base_low)
+        .zip(&decoded.base_unknown)
+    {
+        *v = std::array::from_fn(|c| {
+            let (lo, hi) = (header.base_min[c], header.base_max[c]);
+            lo + within_range(centre[c], unknown[c], (0, hi - lo))
+        });
+    }
+    debug_assert!(base <= decoded.base_unknown.len());
     let (from, to) = (tree.numbering(), layout.numbering());
     let samples = tree.samples();
     for e in &decoded.nonzero {
@@ -361,6 +407,19 @@ mod tests {
             }
         }
         assert_eq!(from_value([CENTRE; 3]), [128; 3], "no information is grey");
+    }
+
+    #[test]
+    fn base_values_are_reconstructed_within_the_colour_range() {
+        let range = (0, 300);
+        // Nothing known of 9 bits: the middle of the range, not of 512.
+        assert_eq!(within_range(256, 9, range), 150);
+        // The top bit: the lower part of 256 values, or what is left.
+        assert_eq!(within_range(128, 8, range), 127);
+        assert_eq!(within_range(384, 8, range), 278);
+        // An interval beside the range: its end nearer it; known: itself.
+        assert_eq!(within_range(448, 6, range), 416);
+        assert_eq!(within_range(7, 0, range), 7);
     }
 
     #[test]

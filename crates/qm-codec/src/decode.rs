@@ -412,7 +412,13 @@ impl Decoder {
         };
         let level = status.level;
         let mut values = Vec::new();
-        crate::colour::fill(&self.layout, &colour.tree, decoded, &mut values);
+        crate::colour::fill(
+            &self.layout,
+            &colour.tree,
+            decoded,
+            &colour.header,
+            &mut values,
+        );
         let levels = colour.tree.levels();
         let top = (decoded.nonzero.iter())
             .map(|e| levels[e.node as usize] as u32)

@@ -32,6 +32,11 @@ pub struct Decoded {
     /// to its high part `(value >> base_bits) << base_bits`; empty when the
     /// stream carries no base bits.
     pub base_low: Vec<Coef>,
+    /// How many low bits of each base value are still unknown: the value
+    /// lies in the `2^u` values from `base_low - 2^(u-1)` on (`u > 0`), of
+    /// which `base_low` is the centre; a caller that knows more about the
+    /// values (a range) can reconstruct better.
+    pub base_unknown: Vec<[u8; 3]>,
     /// Passes decoded completely.
     pub passes: u32,
     /// Whether the stream ended before the passes asked for were complete.

@@ -263,6 +263,7 @@ fn run_decoder(
         nonzero: state.reconstruct(),
         nodes: tree.len(),
         base_low: state.reconstruct_base(),
+        base_unknown: state.base_unknown(),
         passes: done,
         truncated,
         bytes_read: reader.position(),

@@ -469,6 +469,13 @@ impl State {
         nonzero
     }
 
+    /// How many low bits of every base value are unknown.
+    pub(crate) fn base_unknown(&self) -> Vec<[u8; 3]> {
+        (self.base_low.chunks_exact(3))
+            .map(|c| [c[0], c[1], c[2]])
+            .collect()
+    }
+
     /// Centre of every base value's low bits (zeros without base bits).
     pub(crate) fn reconstruct_base(&self) -> Vec<Coef> {
         let mut low = vec![[0; 3]; self.base_known.len() / 3];

@@ -173,6 +173,13 @@ pub enum Problem {
         /// How many bytes follow the header.
         bytes: usize,
     },
+    /// Colours to write do not match the vertices one to one.
+    ColourCount {
+        /// How many colours were given.
+        colours: usize,
+        /// How many vertices the mesh has.
+        vertices: usize,
+    },
     /// The text or binary layout does not follow the format.
     Syntax(String),
     /// A valid variant of the format that this reader does not handle.
@@ -214,6 +221,9 @@ impl fmt::Display for Problem {
                     f,
                     "header declares {count} {what} but only {bytes} bytes follow"
                 )
+            }
+            Problem::ColourCount { colours, vertices } => {
+                write!(f, "{colours} colours for {vertices} vertices")
             }
             Problem::Syntax(message) => write!(f, "{message}"),
             Problem::Unsupported(what) => write!(f, "unsupported: {what}"),

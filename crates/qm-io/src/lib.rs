@@ -6,7 +6,8 @@
 //! an unknown extension, by content; [`read_mesh_bytes`] reads from memory (for
 //! tests and fuzzing). [`write_mesh`] writes OBJ or PLY atomically (a temporary
 //! file in the target's directory, then a rename), [`write_mesh_to`] writes to
-//! any [`std::io::Write`].
+//! any [`std::io::Write`]; [`write_coloured_mesh`] and
+//! [`write_coloured_mesh_to`] add an 8-bit colour a vertex.
 //!
 //! What [`read_mesh`] keeps: vertex positions in file order (unreferenced
 //! vertices too, except in glTF, see below) and faces as polygons with their
@@ -290,7 +291,57 @@ pub fn write_mesh(path: &Path, mesh: &PolyMesh) -> Result<(), MeshError> {
     let format = Format::from_path(path).ok_or(MeshError::UnknownFormat { file: file.clone() })?;
     // Checked before touching the disk, so a refused mesh costs no temporary file.
     check_writable(mesh, format, &file)?;
-    write_atomic(path, |w| write_unchecked(w, format, mesh)).map_err(|e| MeshError::io(&file, e))
+    write_atomic(path, |w| write_unchecked(w, format, mesh, None))
+        .map_err(|e| MeshError::io(&file, e))
+}
+
+/// [`write_mesh`] with an 8-bit sRGB colour for each vertex: PLY gets
+/// `property uchar red`, `green`, `blue` after `x y z`, OBJ gets
+/// `v x y z r g b` with `r g b` in 0..1 (six decimals, which read back to
+/// the same 8-bit values). Fails, naming the file, when the colour count is
+/// not the vertex count, and for everything [`write_mesh`] refuses.
+pub fn write_coloured_mesh(
+    path: &Path,
+    mesh: &PolyMesh,
+    colours: &[[u8; 3]],
+) -> Result<(), MeshError> {
+    let file = path.display().to_string();
+    let format = Format::from_path(path).ok_or(MeshError::UnknownFormat { file: file.clone() })?;
+    check_coloured(mesh, colours, format, &file)?;
+    write_atomic(path, |w| write_unchecked(w, format, mesh, Some(colours)))
+        .map_err(|e| MeshError::io(&file, e))
+}
+
+/// [`write_coloured_mesh`] to any writer, as [`write_mesh_to`].
+pub fn write_coloured_mesh_to(
+    w: &mut impl Write,
+    format: Format,
+    mesh: &PolyMesh,
+    colours: &[[u8; 3]],
+) -> Result<(), MeshError> {
+    const NAME: &str = "<output>";
+    check_coloured(mesh, colours, format, NAME)?;
+    write_unchecked(w, format, mesh, Some(colours)).map_err(|e| MeshError::io(NAME, e))
+}
+
+/// [`check_writable`], and one colour a vertex.
+fn check_coloured(
+    mesh: &PolyMesh,
+    colours: &[[u8; 3]],
+    format: Format,
+    file: &str,
+) -> Result<(), MeshError> {
+    check_writable(mesh, format, file)?;
+    if colours.len() != mesh.positions.len() {
+        return Err(MeshError::InvalidMesh {
+            file: file.to_owned(),
+            problem: Problem::ColourCount {
+                colours: colours.len(),
+                vertices: mesh.positions.len(),
+            },
+        });
+    }
+    Ok(())
 }
 
 /// Writes a file without ever leaving a partial one: `write` fills a
@@ -369,7 +420,7 @@ fn remove_pending(which: impl Fn(&Path) -> bool) {
 pub fn write_mesh_to(w: &mut impl Write, format: Format, mesh: &PolyMesh) -> Result<(), MeshError> {
     const NAME: &str = "<output>";
     check_writable(mesh, format, NAME)?;
-    write_unchecked(w, format, mesh).map_err(|e| MeshError::io(NAME, e))
+    write_unchecked(w, format, mesh, None).map_err(|e| MeshError::io(NAME, e))
 }
 
 #[cfg(unix)]
@@ -384,11 +435,16 @@ fn default_permissions() -> Option<fs::Permissions> {
     None
 }
 
-fn write_unchecked(w: &mut impl Write, format: Format, mesh: &PolyMesh) -> io::Result<()> {
+fn write_unchecked(
+    w: &mut impl Write,
+    format: Format,
+    mesh: &PolyMesh,
+    colours: Option<&[[u8; 3]]>,
+) -> io::Result<()> {
     let mut w = BufWriter::new(w);
     match format {
-        Format::Obj => obj::write(&mut w, mesh)?,
-        Format::Ply => ply::write(&mut w, mesh)?,
+        Format::Obj => obj::write(&mut w, mesh, colours)?,
+        Format::Ply => ply::write(&mut w, mesh, colours)?,
         Format::Off | Format::Stl | Format::Gltf | Format::Glb => {
             unreachable!("check_writable refuses {format}")
         }
@@ -625,6 +681,66 @@ mod tests {
                 assert_eq!(p[k].to_bits(), q[k].to_bits(), "{p} vs {q}");
             }
         }
+    }
+
+    /// Coloured PLY and OBJ files read back with the same geometry and the
+    /// same 8-bit colours, through the atomic writer and the `_to` one.
+    #[test]
+    fn coloured_meshes_round_trip() {
+        let mesh = awkward_mesh();
+        let colours: Vec<[u8; 3]> = (0..mesh.positions.len() as u8)
+            .map(|k| [k * 51, 255 - k * 37, k.wrapping_mul(89)])
+            .collect();
+        let dir = tempfile::tempdir().unwrap();
+        for name in ["c.ply", "c.obj"] {
+            let path = dir.path().join(name);
+            write_coloured_mesh(&path, &mesh, &colours).unwrap();
+            let asset = read_asset(&path, &AssetOptions::DEFAULT).unwrap();
+            assert_bit_exact(&mesh, &asset.mesh);
+            let back: Vec<[u8; 3]> = asset
+                .colors
+                .expect("colours read back")
+                .iter()
+                .map(|c| [0, 1, 2].map(|k| (c[k] * 255.0).round() as u8))
+                .collect();
+            assert_eq!(back, colours, "{name}");
+            assert!(asset.dropped.is_empty(), "{name}: {:?}", asset.dropped);
+            let mut bytes = Vec::new();
+            let format = Format::from_path(&path).unwrap();
+            write_coloured_mesh_to(&mut bytes, format, &mesh, &colours).unwrap();
+            assert_eq!(bytes, fs::read(&path).unwrap(), "{name}");
+        }
+        // PLY `uchar` values are the bytes themselves.
+        let asset = read_asset(&dir.path().join("c.ply"), &AssetOptions::DEFAULT).unwrap();
+        let exact: Vec<[f32; 4]> = colours
+            .iter()
+            .map(|c| [c[0], c[1], c[2], 255].map(|x| (f64::from(x) / 255.0) as f32))
+            .collect();
+        assert_eq!(asset.colors, Some(exact));
+    }
+
+    #[test]
+    fn a_colour_count_other_than_the_vertex_count_is_refused() {
+        let mesh = quad_and_triangle();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("few.ply");
+        let err = write_coloured_mesh(&path, &mesh, &[[0; 3]; 4]).unwrap_err();
+        let text = err.to_string();
+        assert!(
+            text.contains("few.ply") && text.contains("4 colours for 5 vertices"),
+            "{text}"
+        );
+        assert!(!path.exists());
+        assert_eq!(
+            fs::read_dir(dir.path()).unwrap().count(),
+            0,
+            "no temporary file"
+        );
+        let err = write_coloured_mesh_to(&mut Vec::new(), Format::Obj, &mesh, &[]).unwrap_err();
+        assert!(
+            err.to_string().contains("0 colours for 5 vertices"),
+            "{err}"
+        );
     }
 
     fn points(n: usize) -> PolyMesh {

@@ -464,16 +464,27 @@ pub(super) fn looks_like_obj(bytes: &[u8]) -> bool {
 }
 
 /// Writes `v x y z` lines with Rust's shortest round-trip formatting (so every
-/// position reads back bit-exactly) and 1-based `f` lines, one polygon each.
-pub(super) fn write(w: &mut impl Write, mesh: &PolyMesh) -> io::Result<()> {
+/// position reads back bit-exactly), followed by ` r g b` in 0..1 with six
+/// decimals when `colours` are given (one a vertex; each 8-bit value reads
+/// back exactly), and 1-based `f` lines, one polygon each.
+pub(super) fn write(
+    w: &mut impl Write,
+    mesh: &PolyMesh,
+    colours: Option<&[[u8; 3]]>,
+) -> io::Result<()> {
     writeln!(
         w,
         "# written by qm: {} vertices, {} faces",
         mesh.positions.len(),
         mesh.face_count()
     )?;
-    for p in &mesh.positions {
-        writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
+    for (k, p) in mesh.positions.iter().enumerate() {
+        write!(w, "v {} {} {}", p.x, p.y, p.z)?;
+        if let Some(colours) = colours {
+            let [r, g, b] = colours[k].map(|c| f64::from(c) / 255.0);
+            write!(w, " {r:.6} {g:.6} {b:.6}")?;
+        }
+        w.write_all(b"\n")?;
     }
     for face in mesh.faces() {
         w.write_all(b"f")?;

@@ -14,6 +14,9 @@
 //!
 //! - **Any mesh, from outside the crate:** `distance::Surface` (public),
 //!   built on [`Closest`]: the feet the encoder's holds measure against.
+//! - **Colours**: `colour::ColourSurface` and `colour_distance()` ask
+//!   [`Closest::locate`], which also names the triangle and the barycentric
+//!   coordinates of each answer.
 //! - **[`distance()`](crate::distance())**, both ways and about a million
 //!   samples each, and the remesher's own measure of its remesh (module
 //!   `remesh::finish`): [`Closest`].
@@ -51,6 +54,23 @@ pub(crate) struct Closest {
     triangles: Vec<[u32; 3]>,
     /// One leaf a run of [`RUN`] triangles.
     bvh: Bvh,
+    /// For each sorted triangle, its index in the triangles given to
+    /// [`Closest::indexed`]; empty when built by [`Closest::new`], whose
+    /// callers ask for points alone.
+    order: Vec<u32>,
+}
+
+/// Where [`Closest::locate`] found the closest point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Located {
+    /// The point (moved by `-origin`, as the triangles are).
+    pub point: DVec3,
+    /// Its triangle, an index into the triangles given to
+    /// [`Closest::indexed`].
+    pub triangle: usize,
+    /// Its barycentric coordinates in that triangle, in the order of the
+    /// triangle's corners: non-negative, summing to 1.
+    pub barycentric: [f64; 3],
 }
 
 /// Triangles a leaf of [`Closest`]'s BVH.
@@ -65,6 +85,27 @@ impl Closest {
         triangles: &[[u32; 3]],
         [min, max]: [DVec3; 2],
         origin: DVec3,
+    ) -> Closest {
+        Closest::build(points, triangles, [min, max], origin, false)
+    }
+
+    /// [`Closest::new`], keeping which input triangle each sorted one is,
+    /// for [`Closest::locate`] (4 bytes a triangle more).
+    pub(crate) fn indexed(
+        points: &[DVec3],
+        triangles: &[[u32; 3]],
+        [min, max]: [DVec3; 2],
+        origin: DVec3,
+    ) -> Closest {
+        Closest::build(points, triangles, [min, max], origin, true)
+    }
+
+    fn build(
+        points: &[DVec3],
+        triangles: &[[u32; 3]],
+        [min, max]: [DVec3; 2],
+        origin: DVec3,
+        keep_order: bool,
     ) -> Closest {
         let (min, max) = (min - origin, max - origin);
         // Each axis over its own extent: over the longest one, a needle's
@@ -100,6 +141,11 @@ impl Closest {
                 })
             })
             .collect();
+        let order = if keep_order {
+            keyed.iter().map(|&(_, t)| t).collect()
+        } else {
+            Vec::new()
+        };
         drop((keyed, number));
         let leaves: Vec<Aabb> = sorted
             .par_chunks(RUN)
@@ -113,6 +159,7 @@ impl Closest {
             positions,
             triangles: sorted,
             bvh,
+            order,
         }
     }
 
@@ -124,6 +171,25 @@ impl Closest {
     /// The point of the triangles closest to `p` (moved by `-origin`, as the
     /// triangles are).
     pub(crate) fn project(&self, p: DVec3) -> DVec3 {
+        // The BVH is never empty: the callers give a triangle at least.
+        self.nearest(p).map_or(p, |(q, _)| q)
+    }
+
+    /// [`Closest::project`] with the triangle and barycentric coordinates of
+    /// the answer. Only for a search built by [`Closest::indexed`].
+    pub(crate) fn locate(&self, p: DVec3) -> Located {
+        let Some((point, sorted)) = self.nearest(p) else {
+            unreachable!("the callers give a triangle at least")
+        };
+        Located {
+            point,
+            triangle: self.order[sorted] as usize,
+            barycentric: barycentric(point, self.corners(&self.triangles[sorted])),
+        }
+    }
+
+    /// The closest point and its sorted triangle.
+    fn nearest(&self, p: DVec3) -> Option<(DVec3, usize)> {
         // Best first by squared distances, to the leaves' boxes and then to
         // their triangles.
         let query = to_parry(p);
@@ -139,16 +205,35 @@ impl Closest {
                 let start = leaf as usize * RUN;
                 let run = &self.triangles[start..(start + RUN).min(self.triangles.len())];
                 run.iter()
-                    .map(|t| {
+                    .enumerate()
+                    .map(|(k, t)| {
                         let (q, _) = closest_on_triangle(p, self.corners(t));
-                        ((q - p).length_squared(), q)
+                        ((q - p).length_squared(), (q, start + k))
                     })
                     .min_by(|x, y| x.0.total_cmp(&y.0))
             },
         );
-        // The BVH is never empty: the callers give a triangle at least.
-        found.map_or(p, |(_, (_, q))| q)
+        found.map(|(_, (_, found))| found)
     }
+}
+
+/// The barycentric coordinates of `q`, a point of triangle `[a, b, c]`
+/// (Ericson, *Real-Time Collision Detection*, 2005, section 3.4), clamped to
+/// the triangle against rounding. A triangle without area gives its first
+/// corner.
+pub(crate) fn barycentric(q: DVec3, [a, b, c]: [DVec3; 3]) -> [f64; 3] {
+    let (v0, v1, v2) = (b - a, c - a, q - a);
+    let (d00, d01, d11) = (v0.dot(v0), v0.dot(v1), v1.dot(v1));
+    let (d20, d21) = (v2.dot(v0), v2.dot(v1));
+    let denominator = d00 * d11 - d01 * d01;
+    if denominator.is_nan() || denominator <= 0.0 {
+        return [1.0, 0.0, 0.0];
+    }
+    let v = ((d11 * d20 - d01 * d21) / denominator).max(0.0);
+    let w = ((d00 * d21 - d01 * d20) / denominator).max(0.0);
+    let u = (1.0 - v - w).max(0.0);
+    let sum = u + v + w;
+    [u / sum, v / sum, w / sum]
 }
 
 /// The bits of `x` (21 of them) spread to every third bit.

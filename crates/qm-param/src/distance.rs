@@ -260,9 +260,12 @@ impl Surface {
 }
 
 /// A mesh fanned into triangles of positive area.
-struct Triangles<'a> {
+pub(crate) struct Triangles<'a> {
     positions: &'a [DVec3],
-    triangles: Vec<[u32; 3]>,
+    pub(crate) triangles: Vec<[u32; 3]>,
+    /// Where each triangle comes from: its face, and `k` for the fan
+    /// triangle of the face's corners `0, k + 1, k + 2`.
+    pub(crate) fans: Vec<[u32; 2]>,
     /// Area of each triangle.
     areas: Vec<f64>,
     total_area: f64,
@@ -271,7 +274,7 @@ struct Triangles<'a> {
 }
 
 impl<'a> Triangles<'a> {
-    fn new(mesh: &'a PolyMesh, side: Side) -> Result<Self> {
+    pub(crate) fn new(mesh: &'a PolyMesh, side: Side) -> Result<Self> {
         if mesh.face_count() == 0 {
             return Err(Error::NoFaces { mesh: Some(side) });
         }
@@ -279,6 +282,7 @@ impl<'a> Triangles<'a> {
         let fanned = mesh.faces().map(|f| f.len().saturating_sub(2)).sum();
         let mut triangles = Vec::with_capacity(fanned);
         let mut areas = Vec::with_capacity(fanned);
+        let mut fans = Vec::with_capacity(fanned);
         let mut min = DVec3::INFINITY;
         let mut max = DVec3::NEG_INFINITY;
         for (face, corners) in mesh.faces().enumerate() {
@@ -300,13 +304,14 @@ impl<'a> Triangles<'a> {
                 max = max.max(p);
             }
             // A fan from the first corner, as the mesh readers triangulate.
-            for pair in corners.windows(2).skip(1) {
+            for (k, pair) in corners.windows(2).skip(1).enumerate() {
                 let t = [corners[0], pair[0], pair[1]];
                 let [p, q, r] = t.map(|i| positions[i as usize]);
                 let area = 0.5 * (q - p).cross(r - p).length();
                 if area > 0.0 {
                     triangles.push(t);
                     areas.push(area);
+                    fans.push([face as u32, k as u32]);
                 }
             }
         }
@@ -317,6 +322,7 @@ impl<'a> Triangles<'a> {
         Ok(Triangles {
             positions,
             triangles,
+            fans,
             areas,
             total_area,
             min,
@@ -324,11 +330,11 @@ impl<'a> Triangles<'a> {
         })
     }
 
-    fn bbox_diagonal(&self) -> f64 {
+    pub(crate) fn bbox_diagonal(&self) -> f64 {
         (self.max - self.min).length()
     }
 
-    fn bbox_center(&self) -> DVec3 {
+    pub(crate) fn bbox_center(&self) -> DVec3 {
         0.5 * (self.min + self.max)
     }
 
@@ -342,13 +348,23 @@ impl<'a> Triangles<'a> {
         )
     }
 
+    /// [`Self::closest`] that also tells the triangle of each answer.
+    pub(crate) fn closest_indexed(&self, origin: DVec3) -> Closest {
+        Closest::indexed(
+            self.positions,
+            &self.triangles,
+            [self.min, self.max],
+            origin,
+        )
+    }
+
     fn corners(&self, t: usize) -> [DVec3; 3] {
         self.triangles[t].map(|i| self.positions[i as usize])
     }
 
     /// How many samples each triangle receives, drawn as [`Self::samples`]
     /// draws them.
-    fn sample_counts(&self, options: &DistanceOptions) -> Vec<usize> {
+    pub(crate) fn sample_counts(&self, options: &DistanceOptions) -> Vec<usize> {
         (0..self.triangles.len())
             .map(|t| self.sample_count(t, &mut self.rng(t, options), options))
             .collect()
@@ -367,18 +383,33 @@ impl<'a> Triangles<'a> {
     }
 }
 
-/// Triangles a partial sum of [`one_sided`] covers.
+/// Triangles a partial sum of [`fold_samples`] covers.
 const PARTIAL_RUN: usize = 1024;
 
-/// Distances from area-uniform samples of `from` to the surface `to`.
-fn one_sided(from: &Triangles, to: &Closest, origin: DVec3, options: &DistanceOptions) -> OneSided {
-    // Partial sums over fixed runs of triangles, added in order, so that the
-    // result does not depend on how rayon splits the work.
+/// One area-uniform sample of a [`Triangles`]: its triangle, its barycentric
+/// coordinates there, and the point (moved by `-origin`).
+pub(crate) struct Sample {
+    pub triangle: usize,
+    pub barycentric: [f64; 3],
+    pub point: DVec3,
+}
+
+/// Folds `visit` over the area-uniform samples of `from`, the triangles'
+/// points moved by `-origin`: partial folds over fixed runs of triangles,
+/// merged in order, so that the result does not depend on how rayon splits
+/// the work. Every caller sees the same samples for the same options.
+pub(crate) fn fold_samples<P: Default + Send>(
+    from: &Triangles,
+    origin: DVec3,
+    options: &DistanceOptions,
+    visit: impl Fn(&mut P, Sample) + Sync,
+    merge: impl Fn(P, P) -> P,
+) -> P {
     let n = from.triangles.len();
-    let total = (0..n.div_ceil(PARTIAL_RUN))
+    (0..n.div_ceil(PARTIAL_RUN))
         .into_par_iter()
         .map(|k| {
-            let mut partial = Partial::default();
+            let mut partial = P::default();
             for t in k * PARTIAL_RUN..(n.min((k + 1) * PARTIAL_RUN)) {
                 let mut rng = from.rng(t, options);
                 let count = from.sample_count(t, &mut rng, options);
@@ -388,15 +419,34 @@ fn one_sided(from: &Triangles, to: &Closest, origin: DVec3, options: &DistanceOp
                     // triangle.
                     let s = rng.next_f64().sqrt();
                     let u = rng.next_f64();
-                    let point = p * (1.0 - s) + q * (s * (1.0 - u)) + r * (s * u);
-                    partial.add((to.project(point) - point).length());
+                    let barycentric = [1.0 - s, s * (1.0 - u), s * u];
+                    let point = p * barycentric[0] + q * barycentric[1] + r * barycentric[2];
+                    let sample = Sample {
+                        triangle: t,
+                        barycentric,
+                        point,
+                    };
+                    visit(&mut partial, sample);
                 }
             }
             partial
         })
         .collect::<Vec<_>>()
-        .iter()
-        .fold(Partial::default(), |acc, p| acc.merge(p));
+        .into_iter()
+        .fold(P::default(), merge)
+}
+
+/// Distances from area-uniform samples of `from` to the surface `to`.
+fn one_sided(from: &Triangles, to: &Closest, origin: DVec3, options: &DistanceOptions) -> OneSided {
+    let total = fold_samples(
+        from,
+        origin,
+        options,
+        |partial: &mut Partial, sample| {
+            partial.add((to.project(sample.point) - sample.point).length());
+        },
+        |acc, p| acc.merge(&p),
+    );
     if total.count == 0 {
         return OneSided {
             rms: 0.0,
@@ -465,12 +515,26 @@ mod tests {
         let triangles = Triangles::new(&mesh, Side::A).unwrap();
         let origin = DVec3::new(0.1, -0.2, 0.3) * stretch;
         let closest = triangles.closest(origin);
+        let indexed = triangles.closest_indexed(origin);
         let mut rng = SplitMix64::new(7);
         for _ in 0..2000 {
             let p =
                 (DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 4.0 - 2.0) * stretch;
             let q = p - origin;
             let found = (closest.project(q) - q).length();
+            // The indexed search finds the same point, in the triangle and
+            // at the barycentric coordinates it names.
+            let located = indexed.locate(q);
+            assert_eq!(located.point, closest.project(q));
+            let corners =
+                triangles.triangles[located.triangle].map(|i| mesh.positions[i as usize] - origin);
+            let w = located.barycentric;
+            let rebuilt = corners[0] * w[0] + corners[1] * w[1] + corners[2] * w[2];
+            // (Needle triangles lose a few digits to the Gram determinant.)
+            assert!(
+                (rebuilt - located.point).length() <= 1e-10,
+                "{rebuilt} against {located:?}"
+            );
             let every = triangles
                 .triangles
                 .iter()

@@ -47,6 +47,13 @@ pub enum Error {
     /// for [`Error::NoFaces`]).
     #[error("{}vertex {vertex} is not finite", MeshPrefix(*mesh))]
     NonFinite { mesh: Option<Side>, vertex: u32 },
+    /// An [`Asset`](qm_io::Asset)'s appearance does not fit its mesh (a
+    /// colour count other than the vertex count, texture coordinates for
+    /// another number of corners, a material that does not exist, an image
+    /// whose pixels do not match its size); `mesh` as for
+    /// [`Error::NoFaces`]. The readers never return such an asset.
+    #[error("{}appearance does not fit the mesh: {problem}", MeshPrefix(*mesh))]
+    Appearance { mesh: Option<Side>, problem: String },
     /// [`crate::distance::DistanceOptions::samples`] is 0.
     #[error("the sample count must be at least 1")]
     NoSamples,
@@ -234,7 +241,7 @@ impl Error {
             | Error::MissingVertex { .. }
             | Error::NonFinite { .. }
             | Error::Remesh { .. } => ErrorKind::Data,
-            Error::NoSamples => ErrorKind::Parameter,
+            Error::NoSamples | Error::Appearance { .. } => ErrorKind::Parameter,
             Error::TooManyVertices { .. } | Error::Memory { .. } => ErrorKind::Limit,
             Error::Lift(e) => e.kind(),
             Error::Internal(_) => ErrorKind::Bug,

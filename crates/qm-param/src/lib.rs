@@ -14,13 +14,16 @@
 //!
 //! [`distance()`] measures how far two surfaces are apart (RMS, mean and
 //! Hausdorff distance and PSNR, as Metro does), to judge a remeshed or
-//! decoded mesh against its input.
+//! decoded mesh against its input; [`ColourSurface`] gives the colour of an
+//! [`Asset`](qm_io::Asset)'s surface at the point closest to any point, and
+//! [`colour_distance()`] compares two assets' colours at the same samples.
 //!
 //! This crate reads meshes through `qm-io`'s [`PolyMesh`] and builds
 //! `qm-lift`'s types; it knows nothing of trees, coding or files.
 
 pub mod clean;
 mod closest;
+pub mod colour;
 pub mod distance;
 mod error;
 mod quads;
@@ -29,6 +32,7 @@ mod subdivision;
 mod trimesh;
 mod union_find;
 
+pub use colour::{ColourReport, ColourSide, ColourSurface, colour_distance};
 pub use distance::{DistanceOptions, DistanceReport, OneSided, Side, distance};
 pub use error::{Error, Part, RemeshFailure, Result};
 pub use qm_io::PolyMesh;

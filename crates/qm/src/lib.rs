@@ -69,15 +69,34 @@ pub fn read_asset(path: impl AsRef<Path>, options: &AssetOptions) -> Result<Asse
     Ok(qm_io::read_asset(path.as_ref(), options)?)
 }
 
-/// What of `asset` a `.qm` stream does not carry, one entry a kind, in the
-/// order of [`io::AttributeKind`]: the stream holds the geometry alone for
-/// now, so that is everything the asset holds beside it
-/// ([`Asset::held`]: vertex colours and alpha, texture coordinates,
-/// textures, materials) and everything its reader did not keep
-/// ([`Asset::dropped`]: normals, which decoders compute from the surface,
-/// further UV sets, other maps, ...).
+/// What of `asset` a `.qm` stream made by [`encode_asset`] does not carry,
+/// one entry a kind, in the order of [`io::AttributeKind`]: everything its
+/// reader did not keep ([`Asset::dropped`]: normals, which decoders
+/// compute from the surface, further UV sets, other maps, ...), and of
+/// what the asset holds ([`Asset::held`]) all but its look. When the asset
+/// has appearance ([`param::ColourSurface::has_appearance`]) its surface
+/// colour is carried, one colour per sample: vertex colours and materials'
+/// base colours are then not listed, while alpha, texture coordinates and
+/// the images themselves are (the images' colours are sampled). Without
+/// appearance, the stream holds the geometry alone.
 pub fn not_carried(asset: &Asset) -> Vec<io::Dropped> {
+    let coloured = qm_param::ColourSurface::has_appearance(asset);
     let mut list = asset.held();
+    if coloured {
+        use io::AttributeKind::{Materials, TexCoords, Textures, VertexColors};
+        list.retain(|d| !matches!(d.kind, VertexColors | Materials));
+        for d in &mut list {
+            match d.kind {
+                TexCoords => d
+                    .detail
+                    .push_str(" (the texture's colours are carried per sample)"),
+                Textures => d
+                    .detail
+                    .push_str(" (their colours are sampled at each sample instead)"),
+                _ => {}
+            }
+        }
+    }
     for d in &asset.dropped {
         qm_io::add_dropped(&mut list, d.kind, d.count, d.detail.clone());
     }
@@ -89,6 +108,17 @@ pub fn not_carried(asset: &Asset) -> Vec<io::Dropped> {
 /// leaves no half-written file.
 pub fn write_mesh(path: impl AsRef<Path>, mesh: &PolyMesh) -> Result<()> {
     Ok(qm_io::write_mesh(path.as_ref(), mesh)?)
+}
+
+/// [`write_mesh`] with an 8-bit sRGB colour for each vertex (PLY `uchar red
+/// green blue`, OBJ `v x y z r g b`); a colour count other than the vertex
+/// count is an error naming the file.
+pub fn write_coloured_mesh(
+    path: impl AsRef<Path>,
+    mesh: &PolyMesh,
+    colours: &[[u8; 3]],
+) -> Result<()> {
+    Ok(qm_io::write_coloured_mesh(path.as_ref(), mesh, colours)?)
 }
 
 /// Settings of [`encode`]: how to remesh and how to code.
@@ -145,6 +175,32 @@ pub struct Encoded {
 pub fn encode(mesh: &PolyMesh, options: &Options) -> Result<Encoded> {
     let prepared = prepare(mesh, &options.remesh)?;
     encode_prepared(&prepared, mesh, &options.encode)
+}
+
+/// Compresses a mesh with its look: the geometry as [`encode`] does, and,
+/// when the asset has appearance ([`param::ColourSurface::has_appearance`]:
+/// vertex colours, or a decoded base colour texture with texture
+/// coordinates; read it with [`AssetOptions::with_images`]), the colour of
+/// the input surface at each sample's closest point, coded progressively
+/// with the geometry (`docs/appearance.md`). Without appearance the bytes
+/// are [`encode`]'s. What the stream does not carry: [`not_carried`].
+pub fn encode_asset(asset: &Asset, options: &Options) -> Result<Encoded> {
+    let prepared = prepare(&asset.mesh, &options.remesh)?;
+    encode_prepared_asset(&prepared, asset, &options.encode)
+}
+
+/// The second half of [`encode_asset`]: compresses `prepared`, made from
+/// `asset`'s mesh by [`prepare`], with the asset's colours.
+pub fn encode_prepared_asset(
+    prepared: &Prepared,
+    asset: &Asset,
+    options: &EncodeOptions,
+) -> Result<Encoded> {
+    let Some(surface) = qm_param::ColourSurface::new(asset)? else {
+        return encode_prepared(prepared, &asset.mesh, options);
+    };
+    let colours = surface.colours_at(prepared.mesh.positions());
+    encode_with(prepared, &asset.mesh, Some(&colours), options)
 }
 
 /// A decoded `.qm` stream or prefix of one.
@@ -287,12 +343,28 @@ pub fn encode_prepared(
     input: &PolyMesh,
     options: &EncodeOptions,
 ) -> Result<Encoded> {
-    let compressed = if options.holds {
+    encode_with(prepared, input, None, options)
+}
+
+/// [`encode_prepared`], with one colour per sample or not; the probes that
+/// measure the stream (for the holds, and to share the bytes with the
+/// colours) are on `input`'s surface.
+fn encode_with(
+    prepared: &Prepared,
+    input: &PolyMesh,
+    colours: Option<&[[u8; 3]]>,
+    options: &EncodeOptions,
+) -> Result<Encoded> {
+    let mesh = &prepared.mesh;
+    let compressed = if options.holds || colours.is_some() {
         let surface = qm_param::distance::Surface::new(input)?;
-        let probes = qm_codec::Probes::new(&prepared.mesh, |p| surface.closest(p));
-        qm_codec::compress_probed(&prepared.mesh, options, Some(&probes))?
+        let probes = qm_codec::Probes::new(mesh, |p| surface.closest(p));
+        match colours {
+            Some(colours) => qm_codec::compress_coloured(mesh, colours, options, Some(&probes))?,
+            None => qm_codec::compress_probed(mesh, options, Some(&probes))?,
+        }
     } else {
-        qm_codec::compress(&prepared.mesh, options)?
+        qm_codec::compress(mesh, options)?
     };
     let layout = prepared.mesh.layout();
     Ok(Encoded {
@@ -328,7 +400,7 @@ mod tests {
     }
 
     #[test]
-    fn everything_beside_the_geometry_is_not_carried() {
+    fn what_the_stream_does_not_carry_is_listed() {
         let dir = std::env::temp_dir().join(format!("qm-not-carried-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("c.obj");
@@ -339,11 +411,9 @@ mod tests {
         std::fs::remove_dir_all(&dir).unwrap();
         let kinds: Vec<io::AttributeKind> = not_carried(&asset).iter().map(|d| d.kind).collect();
         use io::AttributeKind as K;
-        assert_eq!(
-            kinds,
-            [K::VertexColors, K::TexCoords, K::Materials, K::Normals]
-        );
-        let materials = &not_carried(&asset)[2];
+        // The vertex colours are carried; the library is missing.
+        assert_eq!(kinds, [K::TexCoords, K::Materials, K::Normals]);
+        let materials = &not_carried(&asset)[1];
         assert!(materials.detail.contains("gone.mtl"), "{materials:?}");
         assert!(not_carried(&Asset::default()).is_empty());
     }

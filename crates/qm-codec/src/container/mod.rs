@@ -100,8 +100,13 @@ pub struct ColourHeader {
     /// Extra weighting bits of the luma.
     pub luma_bits: u8,
     /// Bits of each base value the colour stream carries: all of them
-    /// (the values are below `2^base_bits`).
+    /// (each base value less its channel's `base_min` is below
+    /// `2^base_bits`).
     pub base_bits: u8,
+    /// Per channel, the least base value (luma, orange and green chroma).
+    pub base_min: [i32; 3],
+    /// Per channel, the greatest base value.
+    pub base_max: [i32; 3],
     /// The interleaving: the file's stream is `runs[0][0]` geometry
     /// bytes, then `runs[0][1]` colour bytes, then `runs[1][0]` geometry
     /// bytes and so on; each part is a prefix of its own stream.
@@ -579,6 +584,15 @@ fn check_colour(c: &ColourHeader, level: u8) -> Result<()> {
             "{} colour base bits in the stream, which has planes for {most}",
             c.base_bits
         ));
+    }
+    for k in 0..3 {
+        let span = c.base_max[k] as i64 - c.base_min[k] as i64;
+        if !(0..1 << c.base_bits).contains(&span) {
+            return malformed(format!(
+                "colour base values from {} to {} in {} bits",
+                c.base_min[k], c.base_max[k], c.base_bits
+            ));
+        }
     }
     let mut totals = [0u64; 2];
     for run in &c.runs {

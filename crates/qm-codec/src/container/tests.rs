@@ -252,6 +252,8 @@ fn colour_headers_round_trip_and_bad_ones_are_refused() {
         weight_bits: 1,
         luma_bits: 1,
         base_bits: 12,
+        base_min: [-3, 1900, 2047],
+        base_max: [400, 2000, 2047],
         runs: vec![[100, 40], [0, 7], [900, 0]],
     };
     let coloured = Header {
@@ -282,6 +284,14 @@ fn colour_headers_round_trip_and_bad_ones_are_refused() {
         },
         ColourHeader {
             runs: vec![[u32::MAX, 1], [1, 1]],
+            ..colour.clone()
+        },
+        ColourHeader {
+            base_max: [4093, 2000, 2047],
+            ..colour.clone()
+        },
+        ColourHeader {
+            base_min: [-3, 2001, 2047],
             ..colour.clone()
         },
     ];

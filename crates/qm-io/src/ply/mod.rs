@@ -654,9 +654,22 @@ impl PropertyAccess for Skip {
     }
 }
 
-/// Writes binary little endian PLY. The caller has checked face sizes and
-/// indices against [`MAX_WRITTEN_CORNERS`] and [`MAX_WRITTEN_VERTICES`].
-pub(super) fn write(w: &mut impl Write, mesh: &PolyMesh) -> io::Result<()> {
+/// Writes binary little endian PLY, with `uchar red green blue` after each
+/// vertex's position when `colours` are given (one a vertex). The caller has
+/// checked face sizes and indices against [`MAX_WRITTEN_CORNERS`] and
+/// [`MAX_WRITTEN_VERTICES`], and the colour count.
+pub(super) fn write(
+    w: &mut impl Write,
+    mesh: &PolyMesh,
+    colours: Option<&[[u8; 3]]>,
+) -> io::Result<()> {
+    let colour_properties = if colours.is_some() {
+        "property uchar red\n\
+         property uchar green\n\
+         property uchar blue\n"
+    } else {
+        ""
+    };
     write!(
         w,
         "ply\n\
@@ -666,15 +679,19 @@ pub(super) fn write(w: &mut impl Write, mesh: &PolyMesh) -> io::Result<()> {
          property double x\n\
          property double y\n\
          property double z\n\
+         {colour_properties}\
          element face {}\n\
          property list uchar int vertex_indices\n\
          end_header\n",
         mesh.positions.len(),
         mesh.face_count()
     )?;
-    for p in &mesh.positions {
+    for (k, p) in mesh.positions.iter().enumerate() {
         for c in p.to_array() {
             w.write_all(&c.to_le_bytes())?;
+        }
+        if let Some(colours) = colours {
+            w.write_all(&colours[k])?;
         }
     }
     for face in mesh.faces() {

@@ -338,12 +338,14 @@ impl<'a> Knots<'a> {
         drawn
     }
 
-    /// Triangle `t`'s energy: [`Self::stretch_energy`] when relaxing the
-    /// stretch, else [`Self::untangle_energy`].
-    fn energy(&self, map: Map, t: u32) -> f64 {
+    /// Triangle `t`'s energy from its `drawings` (every chart's that
+    /// draws it whole, in the order of [`Self::drawings`]):
+    /// [`Self::stretch_energy`] when relaxing the stretch, else
+    /// [`Self::untangle_energy`].
+    fn energy(&self, t: u32, drawings: impl Iterator<Item = [DVec2; 3]>) -> f64 {
         match &self.stretch {
-            Some((scale, area)) => self.stretch_energy(map, t, *scale, area[t as usize]),
-            None => self.untangle_energy(map, t),
+            Some((scale, area)) => self.stretch_energy(t, drawings, *scale, area[t as usize]),
+            None => self.untangle_energy(t, drawings),
         }
     }
 
@@ -356,10 +358,10 @@ impl<'a> Knots<'a> {
 
     /// Triangle `t`'s least distortion over the charts that draw it, plus
     /// the penalty if it is folded (or drawn in none).
-    fn untangle_energy(&self, map: Map, t: u32) -> f64 {
+    fn untangle_energy(&self, t: u32, drawings: impl Iterator<Item = [DVec2; 3]>) -> f64 {
         let mut best = f64::INFINITY;
         let mut right = self.held(t);
-        for [p, q, r] in self.drawings(map, t) {
+        for [p, q, r] in drawings {
             right |= drawn_right(p, q, r);
             let j = DMat2::from_cols(q - p, r - p) * self.shapes[t as usize];
             let det = j.determinant();
@@ -380,11 +382,17 @@ impl<'a> Knots<'a> {
     /// worst, plus [`PLEAT_PENALTY`] if a chart draws it turned over.
     /// Infinite if every chart does, so relaxing never folds a triangle (nor
     /// lays one flat in every chart).
-    fn stretch_energy(&self, map: Map, t: u32, scale: f64, area: f64) -> f64 {
+    fn stretch_energy(
+        &self,
+        t: u32,
+        drawings: impl Iterator<Item = [DVec2; 3]>,
+        scale: f64,
+        area: f64,
+    ) -> f64 {
         let held = self.held(t);
         let (mut right, mut pleat) = (held, false);
         let mut worst: Option<f64> = None;
-        for [p, q, r] in self.drawings(map, t) {
+        for [p, q, r] in drawings {
             let this_right = drawn_right(p, q, r);
             right |= this_right;
             pleat |= !this_right;
@@ -406,13 +414,6 @@ impl<'a> Knots<'a> {
             }
             _ => f64::INFINITY,
         }
-    }
-
-    fn ring_energy(&self, map: Map, p: u32) -> f64 {
-        self.domain.around[p as usize]
-            .iter()
-            .map(|&t| self.energy(map, t))
-            .sum()
     }
 
     /// One Gauss-Seidel step at `p`: a few line-searched steps down its
@@ -443,11 +444,8 @@ impl<'a> Knots<'a> {
         if size <= 0.0 {
             return None;
         }
-        let at = |x: DVec2| -> Option<(f64, Location)> {
-            let l = star.locate(x, true)?;
-            Some((self.ring_energy(map.moving(p, l), p), l))
-        };
-        let first = self.ring_energy(map, p);
+        let mut places = RingPlaces::new(self, p);
+        let first = places.energy(self, map);
         let mut best = (start, first, base.location[p as usize]);
         // Relaxing the stretch starts from an unfolded map and keeps it so.
         let folded = self.stretch.is_none()
@@ -469,7 +467,7 @@ impl<'a> Knots<'a> {
                     continue;
                 };
                 let moved = map.moving(p, l);
-                let e = self.ring_energy(moved, p);
+                let e = places.energy(self, moved);
                 if e < best.1 {
                     // Back in the proposing chart, where the steps go on.
                     if let Some(x) = place_in(star, a, p, moved, true) {
@@ -478,6 +476,10 @@ impl<'a> Knots<'a> {
                 }
             }
         }
+        let mut at = |x: DVec2| -> Option<(f64, Location)> {
+            let l = star.locate(x, true)?;
+            Some((places.energy(self, map.moving(p, l)), l))
+        };
         for _ in 0..3 {
             let (x, e) = (best.0, best.1);
             let h = 1e-5 * size;
@@ -519,6 +521,76 @@ impl<'a> Knots<'a> {
         // Only a move that lowers the energy by a share worth sweeping for
         // wakes the neighbours.
         Some((best.2, best.1 < (1.0 - 1e-3) * first))
+    }
+}
+
+/// Vertex `p`'s ring as its line search in [`Knots::relax`] reads it: per
+/// triangle around `p`, the places of its other corners in each chart
+/// asked for so far, which stay where they are while `p` alone moves, and
+/// `p`'s places in the charts of the trial being measured. So a trial
+/// places `p` once per chart and nothing else, and its energy is the one of
+/// the triangles drawn afresh, bit for bit: the same places, summed in the
+/// same order.
+struct RingPlaces {
+    p: u32,
+    /// Per triangle around `p`, in order: per chart asked for, the places
+    /// of its corners (`p`'s own slot unused).
+    fixed: Vec<Vec<(u32, [Option<DVec2>; 3])>>,
+    /// Per chart asked for in this trial: `p`'s place there.
+    moving: Vec<(u32, Option<DVec2>)>,
+}
+
+impl RingPlaces {
+    fn new(knots: &Knots, p: u32) -> RingPlaces {
+        RingPlaces {
+            p,
+            fixed: vec![Vec::new(); knots.domain.around[p as usize].len()],
+            moving: Vec::new(),
+        }
+    }
+
+    /// The energy of `p`'s triangles under `map`, which may move `p` but
+    /// no other vertex.
+    fn energy(&mut self, knots: &Knots, map: Map) -> f64 {
+        let p = self.p;
+        self.moving.clear();
+        let moving = &mut self.moving;
+        knots.domain.around[p as usize]
+            .iter()
+            .zip(&mut self.fixed)
+            .map(|(&t, fixed)| {
+                let tri = knots.mesh.triangles[t as usize];
+                // At most one drawing per chart, and at most nine charts.
+                let mut drawn = [[DVec2::ZERO; 3]; 9];
+                let mut len = 0;
+                for a in knots.charts(map, t) {
+                    let star = &knots.domain.stars[&a];
+                    let places = match fixed.iter().find(|(b, _)| *b == a) {
+                        Some(&(_, places)) => places,
+                        None => {
+                            let places =
+                                tri.map(|w| (w != p).then(|| place_in(star, a, w, map, true))?);
+                            fixed.push((a, places));
+                            places
+                        }
+                    };
+                    let here = match moving.iter().find(|(b, _)| *b == a) {
+                        Some(&(_, x)) => x,
+                        None => {
+                            let x = place_in(star, a, p, map, true);
+                            moving.push((a, x));
+                            x
+                        }
+                    };
+                    let corner = |c: usize| if tri[c] == p { here } else { places[c] };
+                    if let (Some(x), Some(y), Some(z)) = (corner(0), corner(1), corner(2)) {
+                        drawn[len] = [x, y, z];
+                        len += 1;
+                    }
+                }
+                knots.energy(t, drawn[..len].iter().copied())
+            })
+            .sum()
     }
 }
 

@@ -37,6 +37,7 @@ mod collapse;
 mod creases;
 mod plan;
 mod quadric;
+mod queue;
 mod ring;
 mod run;
 mod simplifier;

@@ -141,6 +141,30 @@ impl Simplifier<'_> {
         u8::from(from_u >= to_b)
     }
 
+    /// Whether the part is down to so few faces or vertices that no
+    /// removal is allowed.
+    pub(super) fn exhausted(&self) -> bool {
+        let min_faces = if self.closed { 4 } else { 1 };
+        self.alive_faces <= min_faces + 2 || self.alive_vertices <= 4
+    }
+
+    /// How many of `near` (sorted, no repeats, at most 64: a ring) are
+    /// neighbours of `u`, `u` aside: marked in a bit set from `u`'s faces,
+    /// with no list of `u`'s neighbours made.
+    fn common_neighbours(&self, u: u32, near: &[u32]) -> usize {
+        let mut marked = 0u64;
+        for &f in &self.vfaces[u as usize] {
+            for w in self.faces[f as usize] {
+                if w != u
+                    && let Ok(i) = near.binary_search(&w)
+                {
+                    marked |= 1 << i;
+                }
+            }
+        }
+        marked.count_ones() as usize
+    }
+
     /// The best removal of `v`, if any is allowed.
     pub(super) fn plan(&self, v: u32) -> Option<Plan> {
         if self.removed[v as usize] || self.keep.get(v as usize) == Some(&true) {
@@ -150,12 +174,11 @@ impl Simplifier<'_> {
         if degree != 0 && degree != 2 {
             return None;
         }
-        let min_faces = if self.closed { 4 } else { 1 };
         let ring = self.ring(v)?;
         if ring.verts.len() > MAX_RING {
             return None;
         }
-        if self.alive_faces <= min_faces + 2 || self.alive_vertices <= 4 {
+        if self.exhausted() {
             return None;
         }
         // A boundary vertex lies on feature lines (its two boundary edges).
@@ -266,10 +289,7 @@ impl Simplifier<'_> {
                 .map(|&f| self.faces[f as usize])
                 .filter(|t| t.contains(&u))
                 .count();
-            let common = v_neighbours
-                .iter()
-                .filter(|&&w| w != u && self.adjacent(u, w))
-                .count();
+            let common = self.common_neighbours(u, &v_neighbours);
             if common == opposite {
                 best = Some(Plan {
                     u,

@@ -4,13 +4,11 @@
 //! goes on with lower shape bounds. The bases passed at the checkpoints
 //! asked for are kept on the way.
 
-use std::cmp::Ordering;
-
-use foldhash::fast::FixedState;
-use priority_queue::PriorityQueue;
 use rayon::prelude::*;
 
 use super::base::Simplified;
+use super::plan::Plan;
+use super::queue::{Cost, Queue};
 use super::simplifier::Simplifier;
 
 /// How many times its target a simplification may stop at before it goes
@@ -19,31 +17,6 @@ pub(super) const STUCK: usize = 2;
 
 /// The lower shape bounds a stuck simplification goes on with, in turn.
 const LOWER_QUALITY: &[f64] = &[0.005, 0.001, 0.0002];
-
-/// A vertex's priority in the queue of removals: its planned cost.
-#[derive(PartialEq)]
-struct Cost {
-    cost: f64,
-    v: u32,
-}
-
-impl Eq for Cost {}
-
-impl PartialOrd for Cost {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
-    }
-}
-
-impl Ord for Cost {
-    /// Cheapest first in a max-heap; ties by vertex, for determinism.
-    fn cmp(&self, other: &Self) -> Ordering {
-        other
-            .cost
-            .total_cmp(&self.cost)
-            .then_with(|| other.v.cmp(&self.v))
-    }
-}
 
 impl Simplifier<'_> {
     /// Removes vertices, cheapest first, until `stop` triangles are left
@@ -71,32 +44,72 @@ impl Simplifier<'_> {
         //
         // The queue holds each vertex once, its priority updated where its
         // ring changes.
-        let first: Vec<(u32, Cost)> = (0..self.positions.len() as u32)
+        let first: Vec<(u32, Plan)> = (0..self.positions.len() as u32)
             .into_par_iter()
             .with_min_len(1024)
             .filter(|&v| !self.touched[v as usize])
-            .filter_map(|v| self.plan(v).map(|p| (v, Cost { cost: p.cost, v })))
+            .filter_map(|v| self.plan(v).map(|p| (v, p)))
             .collect();
-        let mut queue: PriorityQueue<u32, Cost, FixedState> = first.into_iter().collect();
+        // Per vertex: its plan, while nothing it reads has changed since it
+        // was made (a removal changes what the plans of the vertices within
+        // two rings of it read: see [`Self::stale_around`]). Taken from
+        // here, a plan is the one made again.
+        let mut plans: Vec<Option<Plan>> = Vec::new();
+        plans.resize_with(self.positions.len(), || None);
+        let first = first
+            .into_iter()
+            .map(|(v, p)| {
+                let cost = Cost { cost: p.cost, v };
+                plans[v as usize] = Some(p);
+                cost
+            })
+            .collect();
+        let mut queue = Queue::new(self.positions.len(), first);
         self.pass_checkpoints();
         while self.alive_faces > target {
-            let Some((v, planned)) = queue.pop() else {
+            let Some(planned) = queue.pop() else {
                 break;
             };
-            let Some(plan) = self.plan(v) else { continue };
+            let v = planned.v;
+            let kept = plans[v as usize].take().filter(|_| !self.exhausted());
+            let Some(plan) = kept.or_else(|| self.plan(v)) else {
+                continue;
+            };
             if plan.cost > planned.cost * (1.0 + 1e-9) + 1e-300 {
                 self.touched[v as usize] = true;
-                queue.push(v, Cost { cost: plan.cost, v });
+                queue.push(Cost { cost: plan.cost, v });
+                plans[v as usize] = Some(plan);
                 continue;
             }
             let touched = self.collapse(v, &plan);
             self.pass_checkpoints();
+            self.stale_around(&touched, &mut plans);
             for w in touched {
                 self.touched[w as usize] = true;
                 match self.plan(w) {
-                    Some(p) => queue.push(w, Cost { cost: p.cost, v: w }),
-                    None => queue.remove(&w).map(|(_, c)| c),
-                };
+                    Some(p) => {
+                        queue.push(Cost { cost: p.cost, v: w });
+                        plans[w as usize] = Some(p);
+                    }
+                    None => queue.remove(w),
+                }
+            }
+        }
+    }
+
+    /// Drops the plans a removal may have changed, `ring` the removed
+    /// vertex's ring: a plan reads its vertex's ring, the edges and crease
+    /// lines among the ring's vertices and their quadrics, and a removal
+    /// changes the faces around its ring's vertices, the edges among them
+    /// and one of their quadrics. So the plans of the ring's vertices and
+    /// of their neighbours change, and no other.
+    fn stale_around(&self, ring: &[u32], plans: &mut [Option<Plan>]) {
+        for &y in ring {
+            plans[y as usize] = None;
+            for &f in &self.vfaces[y as usize] {
+                for z in self.faces[f as usize] {
+                    plans[z as usize] = None;
+                }
             }
         }
     }

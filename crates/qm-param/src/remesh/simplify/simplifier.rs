@@ -68,11 +68,11 @@ impl Simplifier<'_> {
     }
 
     pub(super) fn neighbours(&self, v: u32) -> Vec<u32> {
-        let mut out: Vec<u32> = self.vfaces[v as usize]
-            .iter()
-            .flat_map(|&f| self.faces[f as usize])
-            .filter(|&w| w != v)
-            .collect();
+        let faces = &self.vfaces[v as usize];
+        let mut out = Vec::with_capacity(2 * faces.len() + 1);
+        for &f in faces {
+            out.extend(self.faces[f as usize].into_iter().filter(|&w| w != v));
+        }
         out.sort_unstable();
         out.dedup();
         out
