@@ -309,6 +309,45 @@ def test_trimesh_loads_and_exports_qm(tmp_path, spot, spot_qm):
     assert qm_mesh.distance(source, again, samples=20_000).psnr_db > 65
 
 
+def field(vertices):
+    """A smooth sRGB colour field over a mesh, uint8 (n, 3)."""
+    waves = np.sin(vertices @ np.array([[3.0, 0.0, -2.0], [0.0, -2.5, 2.0], [1.0, 2.0, -3.0]]))
+    return np.round(127.5 + 110 * waves).astype(np.uint8)
+
+
+def test_colors_encode_with_the_geometry_and_decode_at_every_prefix(cube, cube_qm):
+    vertices, faces = cube
+    rgb = field(vertices)
+    data = qm_mesh.encode(vertices, faces, colors=rgb)
+    assert data != cube_qm and len(data) > len(cube_qm)
+    assert qm_mesh.encode(vertices, faces, colors=rgb.astype(np.float32) / 255) == data
+    assert qm_mesh.encode(vertices, faces, colors=np.c_[rgb, np.full(len(rgb), 7, np.uint8)]) == data
+    d = qm_mesh.decode(data, level="finest")
+    assert not d.truncated and d.colors.shape == d.vertices.shape
+    # The surface's colour at each sample: the field at the decoded
+    # vertex, within the rounding of a colour sampled near the vertex.
+    error = np.abs(d.colors.astype(int) - field(d.vertices).astype(int))
+    assert error.mean() < 1.0 and error.max() <= 8, (error.mean(), error.max())
+    start = qm_mesh.info(data)["stream_start"]
+    for n in cuts(data, start, 8):
+        p = qm_mesh.decode(data[:n])
+        assert p.colors.shape == p.vertices.shape
+    for bad in (rgb[1:], rgb[:, :2], rgb.astype(np.int32), rgb / 100.0):
+        with pytest.raises(ParameterError, match="colors"):
+            qm_mesh.encode(vertices, faces, colors=bad)
+
+
+def test_trimesh_exports_vertex_colours(tmp_path, cube):
+    trimesh = pytest.importorskip("trimesh")
+    vertices, faces = cube
+    mesh = trimesh.Trimesh(vertices, faces, vertex_colors=field(vertices), process=False)
+    path = tmp_path / "coloured-cube.qm"
+    mesh.export(path)
+    back = trimesh.load_mesh(path, level="finest", process=False)
+    error = np.abs(back.visual.vertex_colors[:, :3].astype(int) - field(back.vertices).astype(int))
+    assert error.mean() < 1.0
+
+
 def test_trimesh_loads_colours_as_vertex_colours(tmp_path, coloured_qm, spot_qm):
     trimesh = pytest.importorskip("trimesh")
     data, rgb = coloured_qm

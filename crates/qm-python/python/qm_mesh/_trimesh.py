@@ -39,10 +39,13 @@ def load_qm(file_obj: Any, file_type: Any = None, resolver: Any = None, **kwargs
 
 def export_qm(mesh: Any, **kwargs: Any) -> bytes:
     """trimesh exporter: ``mesh.export("x.qm", bits=14, ...)`` encodes the
-    mesh with :func:`qm_mesh.encode` and its keyword arguments."""
+    mesh with :func:`qm_mesh.encode` and its keyword arguments, with the
+    mesh's vertex colours if it has some."""
     from . import encode
 
     kwargs.pop("resolver", None)
+    if getattr(mesh.visual, "kind", None) == "vertex" and "colors" not in kwargs:
+        kwargs["colors"] = mesh.visual.vertex_colors
     return encode(mesh.vertices, mesh.faces, **kwargs)
 
 
