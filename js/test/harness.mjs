@@ -20,7 +20,26 @@ export const bins = {
   qm: process.env.QM_BIN ?? path.join(target, 'release', 'qm'),
   reference: path.join(target, 'release', 'examples', 'reference'),
   bench: path.join(target, 'release', 'examples', 'bench'),
+  coloured: path.join(target, 'release', 'examples', 'coloured'),
 };
+
+/**
+ * Writes the coloured test file (a bumpy sphere with a colour per vertex,
+ * `cargo run -p qm-wasm --example coloured`) to `file`, and beside it the
+ * colours the whole file decodes to at its finest level (`.rgb`: r, g, b
+ * bytes per vertex). Returns { bytes, rgb }.
+ */
+export function coloured(file) {
+  execFileSync(bins.coloured, [file], { stdio: 'inherit' });
+  return { bytes: fs.readFileSync(file), rgb: fs.readFileSync(file.replace(/\.qm$/, '.rgb')) };
+}
+
+/** FNV-1a (64 bit, 16 hex digits) of bytes: the reference example's `colours`. */
+export function fnv1a(bytes) {
+  let h = 0xcbf29ce484222325n;
+  for (const b of bytes) h = ((h ^ BigInt(b)) * 0x100000001b3n) & 0xffffffffffffffffn;
+  return h.toString(16).padStart(16, '0');
+}
 
 export function scratch(name) {
   return fs.mkdtempSync(path.join(os.tmpdir(), `qm-js-${name}-`));

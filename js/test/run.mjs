@@ -43,7 +43,7 @@ function npm(dir, args) {
   execFileSync('npm', [...args, '--no-audit', '--no-fund', '--loglevel=error'], { cwd: dir, stdio: 'inherit' });
 }
 
-for (const bin of [bins.qm, bins.reference]) {
+for (const bin of [bins.qm, bins.reference, bins.coloured]) {
   if (!fs.existsSync(bin)) {
     console.error(`error: ${bin} is missing: cargo build --release -p qm-cli -p qm-wasm --bins --examples`);
     process.exit(1);
@@ -61,7 +61,7 @@ if (run('node')) {
   const r = spawnSync(process.execPath, ['--test', '--test-concurrency=1', ...fs.readdirSync(tests).filter((f) => f.endsWith('.test.mjs'))], {
     cwd: dir,
     stdio: 'inherit',
-    env: { ...process.env, QM_ROOT: root, QM_BIN: bins.qm, QM_REFERENCE: bins.reference, QM_SCRATCH: scratch },
+    env: { ...process.env, QM_ROOT: root, QM_BIN: bins.qm, QM_REFERENCE: bins.reference, QM_COLOURED: bins.coloured, QM_SCRATCH: scratch },
   });
   fs.rmSync(scratch, { recursive: true, force: true });
   if (r.status !== 0) failed = true;

@@ -36,13 +36,16 @@ sun.position.set(1, 2, 3);
 camera.add(sun);
 scene.add(camera);
 
+const BASE_COLOUR = 0xd7b48f;
 const material = new THREE.MeshStandardMaterial({
-  color: 0xd7b48f,
+  color: BASE_COLOUR,
   roughness: 0.65,
   metalness: 0.0,
   side: THREE.DoubleSide,
 });
 let mesh = null;
+// A file's colours are sRGB bytes; three.js takes vertex colours as linear.
+const SRGB_TO_LINEAR = Float32Array.from({ length: 256 }, (_, i) => new THREE.Color().setRGB(i / 255, 0, 0, THREE.SRGBColorSpace).r);
 
 function resize() {
   const w = canvas.clientWidth;
@@ -149,6 +152,13 @@ function refine() {
   geometry.setAttribute('position', new THREE.BufferAttribute(positions, 3));
   geometry.setAttribute('normal', new THREE.BufferAttribute(normals, 3));
   geometry.setIndex(new THREE.BufferAttribute(indices, 1));
+  const colors = decoder.colors();
+  if (colors) geometry.setAttribute('color', new THREE.BufferAttribute(Float32Array.from(colors, (c) => SRGB_TO_LINEAR[c]), 3));
+  if (material.vertexColors !== Boolean(colors)) {
+    material.vertexColors = Boolean(colors);
+    material.color.set(colors ? 0xffffff : BASE_COLOUR);
+    material.needsUpdate = true;
+  }
   if (mesh) {
     mesh.geometry.dispose();
     mesh.geometry = geometry;
@@ -327,8 +337,9 @@ function bench(runs = 9) {
   };
 }
 
-// The last rendered picture, shrunk to `width` pixels wide, as grey levels.
-function capture(width = 192) {
+// The last rendered picture, shrunk to `width` pixels wide, as grey levels
+// (and with `colours` its RGBA bytes too).
+function capture(width = 192, colours = false) {
   const height = Math.round((width * canvas.height) / canvas.width);
   const small = document.createElement('canvas');
   small.width = width;
@@ -340,7 +351,7 @@ function capture(width = 192) {
   for (let i = 0; i < grey.length; i++) {
     grey[i] = Math.round((rgba[4 * i] + rgba[4 * i + 1] + rgba[4 * i + 2]) / 3);
   }
-  return { width, height, grey };
+  return { width, height, grey, ...(colours ? { rgba: Array.from(rgba) } : {}) };
 }
 
 window.qmViewer = {

@@ -18,6 +18,7 @@ export const bins = {
   qm: process.env.QM_BIN ?? path.join(target, 'release', 'qm'),
   reference: path.join(target, 'release', 'examples', 'reference'),
   bench: path.join(target, 'release', 'examples', 'bench'),
+  coloured: path.join(target, 'release', 'examples', 'coloured'),
 };
 
 export function scratch(name) {

@@ -8,7 +8,8 @@
 //     same bytes at the same level (checksum of quantized values and
 //     triangles),
 //   - the final mesh equals `qm decompress` of the whole file: same vertex
-//     positions (rounded to f32) and the same quads.
+//     positions (rounded to f32) and the same quads;
+// and a file with colours (the qm-wasm example `coloured`) shows them.
 // Screenshots go to target/web-test/; with QM_UPDATE_DOCS=1 also to
 // docs/viewer/.
 //
@@ -199,6 +200,34 @@ test('?throttle paces a fast download in the page and ?level fixes the level', {
     assert.equal(s.checksum, native.checksum);
     const passes = s.history.map((h) => h.passes);
     assert.deepEqual(passes, passes.slice().sort((x, y) => x - y), 'passes never go down');
+    assert.deepEqual(b.errors, []);
+  } finally {
+    await b.close();
+    server.stop();
+    fs.rmSync(dir, { recursive: true, force: true });
+  }
+});
+
+test('a file with colours shows them', { timeout: 120000 }, async () => {
+  const dir = scratch('coloured');
+  const file = path.join(dir, 'coloured.qm');
+  execFileSync(bins.coloured, [file]);
+  const server = await serve(file);
+  const b = await browser({ width: 320, height: 240 });
+  try {
+    await b.page.goto(server.url);
+    await b.page.waitForFunction(() => window.qmViewer?.state.done, null, { timeout: 60000 });
+    await b.page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+    // Strongly saturated pixels: the sphere's colour bands, where the
+    // viewer's own tan (saturation 0.33) has none.
+    const { rgba } = await b.page.evaluate(() => window.qmViewer.capture(96, true));
+    let n = 0;
+    for (let i = 0; i < rgba.length; i += 4) {
+      const max = Math.max(rgba[i], rgba[i + 1], rgba[i + 2]);
+      if (max > 60 && max - Math.min(rgba[i], rgba[i + 1], rgba[i + 2]) > 0.6 * max) n++;
+    }
+    const saturated = n / (rgba.length / 4);
+    assert.ok(saturated > 0.1, `${saturated} of the picture in saturated colours`);
     assert.deepEqual(b.errors, []);
   } finally {
     await b.close();

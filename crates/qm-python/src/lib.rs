@@ -113,6 +113,22 @@ fn faces_array<'py>(py: Python<'py>, mesh: &PolyMesh) -> Bound<'py, PyArray2<u32
     rows(py, flat, 3)
 }
 
+/// A numpy `(n, 4)` float32 array of RGBA colours (sRGB, 0..1, as
+/// `qm_mesh.encode` makes it) for a mesh of `n` vertices.
+fn vertex_colours(colours: &PyReadonlyArray2<'_, f32>, n: usize) -> PyResult<Vec<[f32; 4]>> {
+    let c = colours.as_array();
+    if c.shape() != [n, 4] {
+        return Err(ParameterError::new_err(format!(
+            "colors must have shape ({n}, 4), one RGBA colour per vertex, not {:?}",
+            c.shape()
+        )));
+    }
+    Ok(c.rows()
+        .into_iter()
+        .map(|r| [r[0], r[1], r[2], r[3]])
+        .collect())
+}
+
 /// `None` or `"auto"`, `"finest"`, or a level number.
 fn level_choice(level: Option<&Bound<'_, PyAny>>) -> PyResult<LevelChoice> {
     let Some(level) = level.filter(|l| !l.is_none()) else {
@@ -193,6 +209,9 @@ struct Decoded {
     vertices: Py<PyArray2<f64>>,
     /// Quads as vertex indices, counter-clockwise, uint32, shape (m, 4).
     faces: Py<PyArray2<u32>>,
+    /// For a file with colours: one 8-bit sRGB colour per vertex, uint8,
+    /// shape (n, 3); None for a file without.
+    colors: Option<Py<PyArray2<u8>>>,
     /// The subdivision level of the mesh (0 is the base mesh).
     level: u32,
     /// The file's finest level.
@@ -249,7 +268,7 @@ impl Decoded {
 /// Compresses a mesh (see `qm_mesh.encode`).
 #[pyfunction]
 #[pyo3(signature = (vertices, faces, bits, passes, max_bytes, holds, frames, remesh_level,
-    normal_remesh, base_domain, accept_folds, min_remesh_psnr, max_memory))]
+    normal_remesh, base_domain, accept_folds, min_remesh_psnr, max_memory, colors))]
 #[allow(clippy::too_many_arguments)]
 fn encode<'py>(
     py: Python<'py>,
@@ -266,8 +285,12 @@ fn encode<'py>(
     accept_folds: bool,
     min_remesh_psnr: f64,
     max_memory: Option<u64>,
+    colors: Option<PyReadonlyArray2<'py, f32>>,
 ) -> PyResult<Bound<'py, PyBytes>> {
-    let mesh = poly_mesh(&vertices, &faces, "")?;
+    let mut asset = qm::Asset::default();
+    asset.mesh = poly_mesh(&vertices, &faces, "")?;
+    let n = asset.mesh.positions.len();
+    asset.colors = colors.map(|c| vertex_colours(&c, n)).transpose()?;
     let domain = match base_domain {
         "auto" => qm::param::BaseDomain::Auto,
         "square" => qm::param::BaseDomain::Square,
@@ -299,7 +322,9 @@ fn encode<'py>(
             .with_weighting(qm::Weighting::LEVELS);
     }
     let options = qm::Options::default().with_remesh(remesh).with_encode(code);
-    let encoded = py.detach(|| qm::encode(&mesh, &options)).map_err(to_py)?;
+    let encoded = py
+        .detach(|| qm::encode_asset(&asset, &options))
+        .map_err(to_py)?;
     Ok(PyBytes::new(py, &encoded.bytes))
 }
 
@@ -307,18 +332,20 @@ fn encode<'py>(
 #[pyfunction]
 fn decode(py: Python<'_>, data: &[u8], options: &Decoding) -> PyResult<Decoded> {
     let options = options.0;
-    let (decoded, flat, quads) = py
+    let (decoded, flat, quads, colours) = py
         .detach(|| {
             let d = qm::decode(data, &options)?;
             // The arrays' contents are made here too, without the GIL.
             let flat: Vec<f64> = d.mesh.positions.iter().flat_map(|p| p.to_array()).collect();
             let quads: Vec<u32> = d.mesh.faces().flatten().copied().collect();
-            Ok::<_, qm::Error>((d, flat, quads))
+            let colours = d.colours().map(|c| c.as_flattened().to_vec());
+            Ok::<_, qm::Error>((d, flat, quads, colours))
         })
         .map_err(to_py)?;
     Ok(Decoded {
         vertices: rows(py, flat, 3).unbind(),
         faces: rows(py, quads, 4).unbind(),
+        colors: colours.map(|c| rows(py, c, 3).unbind()),
         level: decoded.level(),
         finest_level: u32::from(decoded.raw.header.level),
         passes: decoded.passes(),
@@ -524,6 +551,9 @@ impl StreamDecoder {
         Some(Decoded {
             vertices: positions_array(py, &m.positions()).unbind(),
             faces: rows(py, flat, 4).unbind(),
+            colors: m
+                .colours()
+                .map(|c| rows(py, c.as_flattened().to_vec(), 3).unbind()),
             level: m.level(),
             finest_level: decoder.finest_level(),
             passes: m.passes(),

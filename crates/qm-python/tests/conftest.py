@@ -1,8 +1,11 @@
-"""Fixtures: meshes from the repository's assets/, encoded once per session."""
+"""Fixtures: meshes from the repository's assets/, encoded once per session,
+and a coloured file from the qm-wasm example `coloured`."""
 
 import os
+import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import qm_mesh
@@ -45,3 +48,21 @@ def qm_cli():
         if c and os.access(c, os.X_OK) and Path(c).is_file():
             return c
     return None
+
+
+@pytest.fixture(scope="session")
+def coloured_qm(tmp_path_factory):
+    """A bumpy sphere with a colour per vertex, ``(data, rgb)``: the bytes of
+    the ``.qm`` file the qm-wasm example ``coloured`` writes ($QM_COLOURED,
+    else a build in target/; `.ci/python` builds it), and the colours the
+    whole file decodes to at its finest level, uint8 (n, 3). Skips without
+    the example: qm_mesh cannot encode colours yet."""
+    candidates = [os.environ.get("QM_COLOURED")]
+    candidates += [str(ROOT / "target" / p / "examples" / "coloured") for p in ("release", "debug")]
+    example = next((c for c in candidates if c and os.access(c, os.X_OK) and Path(c).is_file()), None)
+    if example is None:
+        pytest.skip("no coloured example: cargo build --release -p qm-wasm --example coloured")
+    path = tmp_path_factory.mktemp("coloured") / "coloured.qm"
+    subprocess.run([example, str(path)], check=True)
+    rgb = np.frombuffer(path.with_suffix(".rgb").read_bytes(), dtype=np.uint8).reshape(-1, 3)
+    return path.read_bytes(), rgb

@@ -18,6 +18,9 @@ def same(a, b):
     assert a.vertices.dtype == np.float64 and a.faces.dtype == np.uint32
     assert np.array_equal(a.vertices, b.vertices)
     assert np.array_equal(a.faces, b.faces)
+    assert (a.colors is None) == (b.colors is None)
+    if a.colors is not None:
+        assert a.colors.dtype == np.uint8 and np.array_equal(a.colors, b.colors)
     assert (a.level, a.passes, a.truncated, a.bytes_used) == (b.level, b.passes, b.truncated, b.bytes_used)
     assert a.error == b.error or (np.isnan(a.error) and np.isnan(b.error))
 
@@ -177,6 +180,29 @@ def test_streaming_matches_decoding_each_prefix(spot_qm):
     assert not decoder.mesh().truncated and not decoder.wants_more
 
 
+def test_colours_come_with_every_prefix_and_exactly_at_the_end(coloured_qm, cube_qm):
+    data, rgb = coloured_qm
+    whole = qm_mesh.decode(data, level="finest")
+    assert not whole.truncated
+    assert whole.colors.dtype == np.uint8 and whole.colors.shape == whole.vertices.shape
+    assert np.array_equal(whole.colors, rgb)
+    start = qm_mesh.info(data)["stream_start"]
+    decoder = qm_mesh.StreamDecoder()
+    errors = []
+    for i in range(0, len(data), 401):
+        if not decoder.feed(data[i : i + 401]):
+            continue
+        m = decoder.mesh()
+        assert m.colors.shape == m.vertices.shape, f"one colour per vertex at {m.bytes_used} bytes"
+        same(m, qm_mesh.decode(data[: decoder.bytes_received]))
+        finest = qm_mesh.decode(data[: decoder.bytes_received], level="finest")
+        errors.append(np.abs(finest.colors.astype(int) - rgb).mean())
+    assert len(errors) > 5 and decoder.bytes_received > start
+    assert errors[0] > 1 and errors[-1] == 0, f"mean colour error by prefix: {errors}"
+    # A file without colours has none.
+    assert qm_mesh.decode(cube_qm).colors is None
+
+
 def test_a_streaming_goal_stops_wanting_bytes(spot_qm):
     decoder = qm_mesh.StreamDecoder(max_error=1e-3, level="finest")
     for i in range(0, len(spot_qm), 4096):
@@ -281,6 +307,58 @@ def test_trimesh_loads_and_exports_qm(tmp_path, spot, spot_qm):
     again = trimesh.load_mesh(out)
     assert qm_mesh.info(out.read_bytes())["bits"] == 14
     assert qm_mesh.distance(source, again, samples=20_000).psnr_db > 65
+
+
+def field(vertices):
+    """A smooth sRGB colour field over a mesh, uint8 (n, 3)."""
+    waves = np.sin(vertices @ np.array([[3.0, 0.0, -2.0], [0.0, -2.5, 2.0], [1.0, 2.0, -3.0]]))
+    return np.round(127.5 + 110 * waves).astype(np.uint8)
+
+
+def test_colors_encode_with_the_geometry_and_decode_at_every_prefix(cube, cube_qm):
+    vertices, faces = cube
+    rgb = field(vertices)
+    data = qm_mesh.encode(vertices, faces, colors=rgb)
+    assert data != cube_qm and len(data) > len(cube_qm)
+    assert qm_mesh.encode(vertices, faces, colors=rgb.astype(np.float32) / 255) == data
+    assert qm_mesh.encode(vertices, faces, colors=np.c_[rgb, np.full(len(rgb), 7, np.uint8)]) == data
+    d = qm_mesh.decode(data, level="finest")
+    assert not d.truncated and d.colors.shape == d.vertices.shape
+    # The surface's colour at each sample: the field at the decoded
+    # vertex, within the rounding of a colour sampled near the vertex.
+    error = np.abs(d.colors.astype(int) - field(d.vertices).astype(int))
+    assert error.mean() < 1.0 and error.max() <= 8, (error.mean(), error.max())
+    start = qm_mesh.info(data)["stream_start"]
+    for n in cuts(data, start, 8):
+        p = qm_mesh.decode(data[:n])
+        assert p.colors.shape == p.vertices.shape
+    for bad in (rgb[1:], rgb[:, :2], rgb.astype(np.int32), rgb / 100.0):
+        with pytest.raises(ParameterError, match="colors"):
+            qm_mesh.encode(vertices, faces, colors=bad)
+
+
+def test_trimesh_exports_vertex_colours(tmp_path, cube):
+    trimesh = pytest.importorskip("trimesh")
+    vertices, faces = cube
+    mesh = trimesh.Trimesh(vertices, faces, vertex_colors=field(vertices), process=False)
+    path = tmp_path / "coloured-cube.qm"
+    mesh.export(path)
+    back = trimesh.load_mesh(path, level="finest", process=False)
+    error = np.abs(back.visual.vertex_colors[:, :3].astype(int) - field(back.vertices).astype(int))
+    assert error.mean() < 1.0
+
+
+def test_trimesh_loads_colours_as_vertex_colours(tmp_path, coloured_qm, spot_qm):
+    trimesh = pytest.importorskip("trimesh")
+    data, rgb = coloured_qm
+    path = tmp_path / "coloured.qm"
+    path.write_bytes(data)
+    mesh = trimesh.load_mesh(path, level="finest", process=False)
+    assert mesh.visual.kind == "vertex"
+    assert np.array_equal(mesh.visual.vertex_colors[:, :3], rgb)
+    plain = tmp_path / "spot.qm"
+    plain.write_bytes(spot_qm)
+    assert trimesh.load_mesh(plain, process=False).visual.kind is None
 
 
 # Threads

@@ -7,9 +7,10 @@
 //!
 //! (LEVEL: a number, `auto`, the default, or `finest`) prints one JSON
 //! line: bytes given and used, level, passes, vertices, triangles, the
-//! estimated error and PSNR, and
+//! estimated error and PSNR,
 //! the [`qm_wasm::mesh_checksum`] of the mesh (the viewer's triangulation of
-//! the quads, two triangles each).
+//! the quads, two triangles each), and for a file with colours the
+//! [`qm_wasm::colour_checksum`] of its vertex colours (else `null`).
 
 use std::process::ExitCode;
 
@@ -55,8 +56,11 @@ fn main() -> ExitCode {
     let used = d.header_bytes + d.base_bytes + d.decoded_stream_bytes;
     let error = d.estimate.error(d.level);
     let psnr = d.estimate.psnr_db(d.level);
+    let colours = d.colours.as_deref().map_or("null".to_string(), |c| {
+        format!("\"{:016x}\"", qm_wasm::colour_checksum(c))
+    });
     println!(
-        "{{\"bytes\":{n},\"bytesUsed\":{used},\"level\":{},\"passes\":{},\"vertices\":{},\"triangles\":{},\"error\":{},\"psnr\":{},\"checksum\":\"{checksum:016x}\"}}",
+        "{{\"bytes\":{n},\"bytesUsed\":{used},\"level\":{},\"passes\":{},\"vertices\":{},\"triangles\":{},\"error\":{},\"psnr\":{},\"checksum\":\"{checksum:016x}\",\"colours\":{colours}}}",
         d.level,
         d.passes,
         vertices,

@@ -3,8 +3,8 @@
 //! [`Buffers`] is a thin layer over [`qm_codec::StreamDecoder`], the
 //! library's one incremental decoder: it keeps the last refinement's
 //! vertex buffers as JavaScript wants them (`f32` positions, area-weighted
-//! unit normals, `u32` triangle indices) and reuses them from one
-//! refinement to the next. [`QmDecoder`] exposes it with `wasm-bindgen`;
+//! unit normals, `u32` triangle indices, and for a file with colours 8-bit
+//! sRGB colours) and reuses them from one refinement to the next. [`QmDecoder`] exposes it with `wasm-bindgen`;
 //! its errors are JavaScript `Error`s with a `code` property
 //! ([`error_code`]). No decoding happens here that the native decoder does
 //! not do in the same code.
@@ -82,6 +82,18 @@ impl Buffers {
         &self.normals
     }
 
+    /// For a file with colours: one 8-bit sRGB colour per vertex of the
+    /// last refinement (the decoder's, not a copy); `None` without colours
+    /// or before the first refinement.
+    pub fn colours(&self) -> Option<&[[u8; 3]]> {
+        self.decoder.mesh().and_then(|m| m.colours())
+    }
+
+    /// Whether the file carries colours (false before the header arrived).
+    pub fn has_colours(&self) -> bool {
+        (self.decoder.decoder()).is_some_and(|d| d.header().colour.is_some())
+    }
+
     /// Triangle corner indices of the last refinement.
     pub fn triangles(&self) -> &[u32] {
         self.decoder.mesh().map_or(&[], |m| m.triangles())
@@ -120,13 +132,8 @@ fn js_error(e: &Error) -> JsValue {
 /// quantized values, the triangle count and the triangle indices: the same
 /// value for the same mesh, whichever decoder built it.
 pub fn mesh_checksum(values: impl Iterator<Item = [i32; 3]>, triangles: &[u32]) -> u64 {
-    let mut h = 0xcbf2_9ce4_8422_2325_u64;
-    let mut eat = |bytes: &[u8]| {
-        for &b in bytes {
-            h ^= u64::from(b);
-            h = h.wrapping_mul(0x0000_0100_0000_01b3);
-        }
-    };
+    let mut h = FNV_START;
+    let mut eat = |bytes: &[u8]| h = fnv1a(h, bytes);
     let mut count = 0u64;
     let mut body = Vec::new();
     for v in values {
@@ -140,6 +147,24 @@ pub fn mesh_checksum(values: impl Iterator<Item = [i32; 3]>, triangles: &[u32]) 
     eat(&(triangles.len() as u64 / 3).to_le_bytes());
     for t in triangles {
         eat(&t.to_le_bytes());
+    }
+    h
+}
+
+/// FNV-1a (64 bit) over the colours' bytes, `r, g, b` per vertex: what a
+/// test computes over the `Uint8Array` a JavaScript decoder returns.
+pub fn colour_checksum(colours: &[[u8; 3]]) -> u64 {
+    fnv1a(FNV_START, colours.as_flattened())
+}
+
+/// The FNV-1a offset basis.
+const FNV_START: u64 = 0xcbf2_9ce4_8422_2325;
+
+/// FNV-1a (64 bit): `h` with `bytes` mixed in.
+fn fnv1a(mut h: u64, bytes: &[u8]) -> u64 {
+    for &b in bytes {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
     }
     h
 }
@@ -377,6 +402,18 @@ impl QmDecoder {
         self.inner.triangles().to_vec()
     }
 
+    /// For a file with colours: the last refinement's vertex colours (a
+    /// copy), `r, g, b` per vertex, 8-bit sRGB; `undefined` without.
+    pub fn colors(&self) -> Option<Vec<u8>> {
+        self.inner.colours().map(|c| c.as_flattened().to_vec())
+    }
+
+    /// Whether the file carries colours (known once the header arrived).
+    #[wasm_bindgen(getter, js_name = hasColors)]
+    pub fn has_colors(&self) -> bool {
+        self.inner.has_colours()
+    }
+
     /// [`mesh_checksum`] of the last refinement, as 16 hex digits.
     pub fn checksum(&self) -> String {
         format!("{:016x}", self.inner.checksum())
@@ -541,6 +578,49 @@ mod tests {
         let tiny = Buffers::new(DecodeOptions::default().with_limits(wasm_limits(1000)));
         let e = { tiny }.decoder_mut().push(&sphere_file()).unwrap_err();
         assert_eq!(error_code(&e), "memory");
+    }
+
+    /// A coloured sphere pushed in pieces: at every refinement one colour
+    /// per vertex, the native decoder's at the same bytes and level; at the
+    /// end (finest level) the input's colours exactly.
+    #[test]
+    fn colours_arrive_with_every_refinement_and_end_exact() {
+        let mesh = bumpy_sphere(3);
+        // A colour per sample that no smooth field predicts exactly.
+        let rgb: Vec<[u8; 3]> = (0..mesh.positions().len())
+            .map(|s| [s as u8, (s * 7 / 3) as u8, 255 - (s % 200) as u8])
+            .collect();
+        let bytes = qm_codec::compress_coloured(&mesh, &rgb, &EncodeOptions::DEFAULT, None)
+            .unwrap()
+            .bytes;
+        let plain = sphere_file();
+        for options in [DecodeOptions::FINEST, DecodeOptions::default()] {
+            let mut inc = Buffers::new(options);
+            assert!(!inc.has_colours() && inc.colours().is_none());
+            let mut shown = 0;
+            for chunk in bytes.chunks(113) {
+                if !inc.decoder_mut().push(chunk).unwrap() || !inc.refine().unwrap() {
+                    continue;
+                }
+                assert!(inc.has_colours());
+                let colours = inc.colours().unwrap();
+                assert_eq!(3 * colours.len(), inc.positions().len());
+                let n = inc.decoder().bytes_received();
+                let native = decompress(&bytes, &options.with_max_bytes(Some(n))).unwrap();
+                assert_eq!(native.colours.as_deref(), Some(colours), "at {n} bytes");
+                shown += 1;
+            }
+            assert!(shown > 3, "{shown} refinements");
+            assert!(!inc.decoder().wants_more());
+            if options.level == LevelChoice::Finest {
+                assert_eq!(inc.colours(), Some(&rgb[..]));
+            }
+        }
+        // A file without colours has none, whatever arrived.
+        let mut inc = buffers();
+        inc.decoder_mut().push(&plain).unwrap();
+        inc.refine().unwrap();
+        assert!(!inc.has_colours() && inc.colours().is_none());
     }
 
     #[test]

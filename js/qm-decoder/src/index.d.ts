@@ -67,6 +67,11 @@ export interface QMMesh {
   normals: Float32Array;
   /** Three vertex indices per triangle, counter-clockwise. */
   indices: Uint32Array;
+  /**
+   * For a file with colours: r, g, b per vertex, 8-bit sRGB (not linear),
+   * one colour per vertex of this mesh; null for a file without.
+   */
+  colors: Uint8Array | null;
   /** The subdivision level shown. */
   level: number;
   /** The file's finest level. */
@@ -113,6 +118,8 @@ export declare class StreamDecoder {
   readonly streamStart: number;
   readonly finestLevel: number;
   readonly totalPasses: number;
+  /** Whether the file carries vertex colours (false before the header). */
+  readonly hasColors: boolean;
   vertexCountAt(level: number): number;
   triangleCountAt(level: number): number;
   /** The native reference decoder's checksum of the last mesh (16 hex digits). */

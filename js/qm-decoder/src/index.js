@@ -212,6 +212,8 @@ export class StreamDecoder {
       positions: d.positions(),
       normals: d.normals(),
       indices: d.indices(),
+      // 8-bit sRGB, r g b per vertex, for a file with colours.
+      colors: d.colors() ?? null,
       level: d.level,
       finestLevel: d.finestLevel,
       passes: d.passes,
@@ -267,6 +269,11 @@ export class StreamDecoder {
   /** Bit-plane passes in the complete file (0 before the header). */
   get totalPasses() {
     return this.#decoder().totalPasses;
+  }
+
+  /** Whether the file carries vertex colours (false before the header). */
+  get hasColors() {
+    return this.#decoder().hasColors;
   }
 
   /** Vertices of the mesh at `level` (0 before the base mesh). */

@@ -11,7 +11,10 @@
 //   - an abort rejects with the signal's reason;
 //   - qm-decoder decodes on the main thread and in a module worker;
 //   - a GLB with QM_progressive_mesh shows its fallback with plain GLTFLoader
-//     and streams to the full mesh with the plugin.
+//     and streams to the full mesh with the plugin;
+//   - a coloured file gives qm-decoder's colours at every refinement (the
+//     native decoder's) and the loader's geometry a color attribute in
+//     step, which three.js turns back into the input's sRGB bytes.
 //
 // Environment: QM_WWW, the bundled pages (set by run.mjs).
 
@@ -20,7 +23,7 @@ import { execFileSync } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
 import { after, before, test } from 'node:test';
-import { bins, browser, compress, logsRequests, reference, requests, root, scratch, serve } from '../harness.mjs';
+import { bins, browser, coloured, compress, fnv1a, logsRequests, reference, requests, root, scratch, serve } from '../harness.mjs';
 import validator from 'gltf-validator';
 
 const www = process.env.QM_WWW;
@@ -32,6 +35,7 @@ let cube;
 let throttled; // qm serve --throttle, the spot file
 let fast; // qm serve unthrottled, the cube file
 let b;
+let colouredFile; // the coloured example's sphere, served throttled
 
 // `qm decompress` of the first `bytes` at `level`, as f32 positions and quads.
 function native(file, bytes, level, extra = []) {
@@ -81,6 +85,7 @@ before(async () => {
     fs.copyFileSync(path.join(root, 'tests', 'corrupt', f), path.join(www, f));
   }
   fs.copyFileSync(spot.file, path.join(www, 'spot-static.qm'));
+  colouredFile = { file: path.join(models, 'coloured.qm'), ...coloured(path.join(models, 'coloured.qm')) };
   // About 5 s for the whole spot file.
   throttled = await serve(models, { throttle: Math.max(8, Math.round(spot.bytes.length / 1024 / 5)), web: www });
   fast = await serve(cubes, { web: www });
@@ -251,11 +256,11 @@ test('qm-decoder decodes on the main thread and in a module worker', { timeout: 
   assert.equal(bad.error.code, 'memory');
 });
 
-// `qm gltf` of spot.qm into the served folder, checked by Khronos's
+// `qm gltf` of spot.qm (or `source`) into the served folder, checked by Khronos's
 // glTF validator: no errors, no warnings.
-async function gltf(name, extra) {
+async function gltf(name, extra, source = spot.file) {
   const file = path.join(www, name);
-  execFileSync(bins.qm, ['gltf', spot.file, '-o', file, '--quiet', ...extra]);
+  execFileSync(bins.qm, ['gltf', source, '-o', file, '--quiet', ...extra]);
   const bytes = new Uint8Array(fs.readFileSync(file));
   const external = { externalResourceFunction: (uri) => Promise.resolve(new Uint8Array(fs.readFileSync(path.join(www, uri)))) };
   const report = name.endsWith('.gltf')
@@ -322,3 +327,29 @@ function glbJson(bytes) {
   const length = bytes.readUInt32LE(12);
   return bytes.subarray(20, 20 + length);
 }
+
+test('a coloured file: colours at every refinement, a color attribute in step', { timeout: 120000 }, async () => {
+  await page(throttled);
+  const r = await b.page.evaluate(() => window.qmTest.colours('models/coloured.qm'));
+  assert.equal(r.ok, true, JSON.stringify(r.error));
+  assert.ok(r.decoded.length > 5, `${r.decoded.length} refinements`);
+  for (const m of r.decoded) {
+    assert.equal(m.colors.length, 3 * m.vertexCount, `one colour per vertex at ${m.bytesUsed} bytes`);
+    const native = reference(colouredFile.file, m.bytesUsed, m.level);
+    assert.equal(fnv1a(m.colors), native.colours, `the native decoder's colours at ${m.bytesUsed} bytes`);
+  }
+  assert.deepEqual(r.decoded.at(-1).colors, Array.from(colouredFile.rgb), 'the whole file: the input colours');
+  assert.ok(r.updates.length > 1, `${r.updates.length} updates of the geometry`);
+  for (const u of r.updates) {
+    assert.deepEqual(u, { vertexCount: u.vertexCount, count: u.vertexCount, itemSize: 3, normalized: true, type: 'Uint16Array' });
+  }
+  assert.deepEqual(r.shownColors, Array.from(colouredFile.rgb), 'linear in the geometry, the input\'s sRGB on screen');
+  assert.ok(r.covered > 0.05, 'the mesh is drawn');
+  // Through qm gltf and the plugin: the material turns to vertex colours.
+  await gltf('coloured.glb', ['--fallback-level', '2'], colouredFile.file);
+  const g = await b.page.evaluate(() => window.qmTest.gltf('coloured.glb', { plugin: true, options: { level: 'finest' } }));
+  assert.equal(g.ok, true, JSON.stringify(g.error));
+  assert.equal(g.final.vertexCount, colouredFile.rgb.length / 3);
+  assert.deepEqual(g.final.color, { count: g.final.vertexCount, type: 'Uint16Array', vertexColors: true, sharedMaterialChanged: false });
+  assert.deepEqual(b.errors, []);
+});

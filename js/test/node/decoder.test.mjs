@@ -4,8 +4,12 @@
 // checksum of `cargo run -p qm-wasm --example reference`), streaming in small
 // chunks, the options, errors with codes, and every prefix of a small file.
 //
+// A coloured file (`cargo run -p qm-wasm --example coloured`) gives colours
+// at every refinement, the native decoder's, and its input's at the end.
+//
 // Environment (set by run.mjs): QM_ROOT (the repository), QM_BIN (qm),
-// QM_REFERENCE (the reference example), QM_SCRATCH (a folder for files).
+// QM_REFERENCE (the reference example), QM_COLOURED (the coloured example),
+// QM_SCRATCH (a folder for files).
 
 import assert from 'node:assert/strict';
 import { execFileSync } from 'node:child_process';
@@ -31,6 +35,13 @@ function reference(file, bytes, level) {
   const args = [file, String(bytes)];
   if (level !== undefined) args.push(String(level));
   return JSON.parse(execFileSync(process.env.QM_REFERENCE, args, { encoding: 'utf8' }));
+}
+
+// FNV-1a (64 bit) of bytes, as the reference example prints `colours`.
+function fnv1a(bytes) {
+  let h = 0xcbf29ce484222325n;
+  for (const b of bytes) h = ((h ^ BigInt(b)) * 0x100000001b3n) & 0xffffffffffffffffn;
+  return h.toString(16).padStart(16, '0');
 }
 
 // The native decoder's answer for what a StreamDecoder shows now.
@@ -270,4 +281,35 @@ test('a streaming decoder throws as soon as the bytes show the problem', () => {
   assert.throws(() => s.end(), (e) => e.code === 'truncated' && /header or base mesh/.test(e.message));
   s.dispose();
   assert.throws(() => new StreamDecoder({ maxError: 'small' }), TypeError);
+});
+
+test('a coloured file: colours at every refinement, the input\'s at the end', async () => {
+  const file = path.join(scratch, 'coloured.qm');
+  execFileSync(process.env.QM_COLOURED, [file]);
+  const bytes = new Uint8Array(fs.readFileSync(file));
+  const rgb = new Uint8Array(fs.readFileSync(path.join(scratch, 'coloured.rgb')));
+  for (const level of ['auto', 'finest']) {
+    const d = new StreamDecoder({ level });
+    assert.equal(d.hasColors, false, 'not known before the header');
+    let shown = 0;
+    for (let at = 0; at < bytes.length; at += 401) {
+      if (!d.push(bytes.subarray(at, at + 401))) continue;
+      assert.equal(d.hasColors, true);
+      const m = d.refine();
+      if (!m) continue;
+      shown++;
+      assert.ok(m.colors instanceof Uint8Array);
+      assert.equal(m.colors.length, 3 * m.vertexCount, `${level}: one colour per vertex at ${m.bytesUsed} bytes`);
+      const native = reference(file, m.bytesUsed, m.level);
+      assert.equal(fnv1a(m.colors), native.colours, `${level}: the native decoder's colours at ${m.bytesUsed} bytes`);
+    }
+    assert.ok(shown > 5, `${level}: ${shown} refinements`);
+    d.end();
+    d.dispose();
+  }
+  const m = await decode(bytes, { level: 'finest' });
+  assert.equal(m.complete, true);
+  assert.deepEqual(m.colors, rgb, 'the whole file gives the input colours exactly');
+  // A file without colours has none.
+  assert.equal((await decode(cube.bytes)).colors, null);
 });

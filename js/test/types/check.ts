@@ -16,11 +16,12 @@ export async function decoderApi(bytes: Uint8Array): Promise<number> {
   const mesh: QMMesh = await decode(bytes, options);
   const positions: Float32Array = mesh.positions;
   const indices: Uint32Array = mesh.indices;
+  const colors: Uint8Array | null = mesh.colors;
   const d = new StreamDecoder({ level: 'finest' });
   const isReadyNow: boolean = d.push(bytes);
   const next: QMMesh | null = d.refine();
   d.setOptions({ maxError: 0.001 });
-  const more: boolean = d.wantsMore && isReady() && isReadyNow;
+  const more: boolean = d.wantsMore && isReady() && isReadyNow && d.hasColors;
   d.end();
   d.dispose();
   try {
@@ -31,7 +32,7 @@ export async function decoderApi(bytes: Uint8Array): Promise<number> {
       console.log(code, e.message, CODES.includes('memory'));
     }
   }
-  return positions.length + indices.length + (next ? next.level : 0) + (more ? 1 : 0);
+  return positions.length + indices.length + (colors?.length ?? 0) + (next ? next.level : 0) + (more ? 1 : 0);
 }
 
 export async function loaderApi(): Promise<BufferGeometry> {
@@ -48,6 +49,7 @@ export async function loaderApi(): Promise<BufferGeometry> {
   stream.dispose();
   const geometry: BufferGeometry = await loader.loadAsync('bunny.qm');
   applyMesh(geometry, { positions: new Float32Array(3), normals: new Float32Array(3), indices: new Uint32Array(3), level: 0 });
+  applyMesh(geometry, { positions: new Float32Array(3), normals: new Float32Array(3), indices: new Uint32Array(3), level: 0, colors: new Uint8Array(3) });
   const gltf = new GLTFLoader();
   let extension: GLTFQMExtension | null = null;
   gltf.register((parser) => (extension = new GLTFQMExtension(parser, { maxError: 0.001, loader })));

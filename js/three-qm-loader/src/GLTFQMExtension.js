@@ -46,6 +46,21 @@ function fallbackUpdate(geometry, ext) {
   };
 }
 
+// Vertex colours decoded from the .qm: the meshes' materials use them. A
+// material is cloned first (as GLTFLoader does for primitives with COLOR_0),
+// since other meshes may share it without colours.
+function showColors(objects) {
+  for (const object of objects) {
+    const one = (m) => {
+      if (!m || m.vertexColors) return m;
+      const c = m.clone();
+      c.vertexColors = true;
+      return c;
+    };
+    object.material = Array.isArray(object.material) ? object.material.map(one) : one(object.material);
+  }
+}
+
 export class GLTFQMExtension {
   constructor(parser, options = {}) {
     this.parser = parser;
@@ -81,9 +96,14 @@ export class GLTFQMExtension {
         const primitiveIndex = association.primitives ?? 0;
         const primitive = json.meshes?.[meshIndex]?.primitives?.[primitiveIndex];
         const ext = primitive?.extensions?.[NAME];
-        if (!ext || seen.has(object.geometry)) return;
-        seen.set(object.geometry, true);
-        this.targets.push({ geometry: object.geometry, ext, meshIndex, primitiveIndex });
+        if (!ext) return;
+        if (seen.has(object.geometry)) {
+          seen.get(object.geometry).objects.push(object);
+          return;
+        }
+        const target = { geometry: object.geometry, objects: [object], ext, meshIndex, primitiveIndex };
+        seen.set(object.geometry, target);
+        this.targets.push(target);
       });
     }
     if (this.autoStream) this.stream();
@@ -101,7 +121,7 @@ export class GLTFQMExtension {
     return this.done;
   }
 
-  async #streamOne({ geometry, ext, meshIndex, primitiveIndex }) {
+  async #streamOne({ geometry, objects, ext, meshIndex, primitiveIndex }) {
     const { onUpdate, ...rest } = this.streamOptions;
     // A fallback that meets the error goal already: nothing to fetch.
     const fallback = ext.fallback ?? {};
@@ -114,6 +134,7 @@ export class GLTFQMExtension {
       geometry,
       showFrom: ext.fallback?.bytes ?? 0,
       onUpdate: (u) => {
+        if (geometry.hasAttribute('color')) showColors(objects);
         onUpdate?.(u);
         this.onPrimitiveUpdate?.({ ...u, meshIndex, primitiveIndex });
       },

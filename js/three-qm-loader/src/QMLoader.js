@@ -35,20 +35,53 @@ function progressEvent(loaded, total) {
   return typeof ProgressEvent === 'function' ? new ProgressEvent('progress', init) : { type: 'progress', ...init };
 }
 
-/** Puts a decoded mesh into `geometry`, reusing its buffers when the sizes allow. */
+// The decoder's colours are 8-bit sRGB; three.js takes vertex colours as
+// linear (its working colour space) and encodes the output to sRGB, so each
+// value goes through the sRGB transfer function's inverse here, or dark
+// tones would come out too light. Stored as normalized Uint16: every 8-bit
+// sRGB value keeps a value of its own (the smallest linear step, 1/255/12.92,
+// is about 20 steps of 1/65535) and the output rounds back to the input
+// byte, at half the memory and upload of Float32; Uint8 would merge the
+// darkest codes (banding).
+let linearTable = null;
+function srgbToLinear16(colors, out) {
+  if (!linearTable) {
+    linearTable = new Uint16Array(256);
+    for (let i = 0; i < 256; i++) {
+      const c = i / 255;
+      const linear = c <= 0.04045 ? c / 12.92 : ((c + 0.055) / 1.055) ** 2.4;
+      linearTable[i] = Math.round(linear * 65535);
+    }
+  }
+  for (let i = 0; i < colors.length; i++) out[i] = linearTable[colors[i]];
+  return out;
+}
+
+/**
+ * Puts a decoded mesh into `geometry`, reusing its buffers when the sizes
+ * allow. A mesh with `colors` (qm-decoder's sRGB bytes) gives the geometry a
+ * `color` attribute in linear values; one without removes it.
+ */
 export function applyMesh(geometry, mesh) {
   const position = geometry.getAttribute('position');
   const normal = geometry.getAttribute('normal');
+  const color = geometry.getAttribute('color');
   const index = geometry.getIndex();
+  const colors = mesh.colors ?? null;
   const same = position && normal && index
     && position.array.length === mesh.positions.length
     && index.array.length === mesh.indices.length
+    && (colors ? color?.array.length === colors.length : !color)
     && geometry.userData.qmLevel === mesh.level;
   if (same) {
     position.array.set(mesh.positions);
     position.needsUpdate = true;
     normal.array.set(mesh.normals);
     normal.needsUpdate = true;
+    if (colors) {
+      srgbToLinear16(colors, color.array);
+      color.needsUpdate = true;
+    }
   } else {
     // New sizes: free the GPU buffers of the old ones; the renderer uploads
     // the new attributes at the next frame, the geometry object stays.
@@ -59,6 +92,9 @@ export function applyMesh(geometry, mesh) {
     geometry.morphAttributes = {};
     geometry.setAttribute('position', new BufferAttribute(mesh.positions, 3));
     geometry.setAttribute('normal', new BufferAttribute(mesh.normals, 3));
+    if (colors) {
+      geometry.setAttribute('color', new BufferAttribute(srgbToLinear16(colors, new Uint16Array(colors.length)), 3, true));
+    }
     geometry.setIndex(new BufferAttribute(mesh.indices, 1));
   }
   geometry.userData.qmLevel = mesh.level;

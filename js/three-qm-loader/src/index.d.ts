@@ -120,10 +120,15 @@ export declare class QMLoader extends Loader<BufferGeometry> {
   dispose(): this;
 }
 
-/** Puts a decoded mesh's arrays into a geometry (reusing buffers of the same size). */
+/**
+ * Puts a decoded mesh's arrays into a geometry (reusing buffers of the same
+ * size). `colors` (8-bit sRGB, as qm-decoder gives them) become a `color`
+ * attribute of linear values (normalized Uint16); without them the geometry
+ * has no `color` attribute.
+ */
 export declare function applyMesh(
   geometry: BufferGeometry,
-  mesh: { positions: Float32Array; normals: Float32Array; indices: Uint32Array; level: number },
+  mesh: { positions: Float32Array; normals: Float32Array; indices: Uint32Array; level: number; colors?: Uint8Array | null },
 ): void;
 
 export interface GLTFQMExtensionOptions extends QMStreamOptions {

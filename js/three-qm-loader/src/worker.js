@@ -22,6 +22,7 @@ function fail(seq, e) {
 // mesh's buffers (transferred, not copied) when there is a new mesh.
 function status(decoder, mesh) {
   const transfer = mesh ? [mesh.positions.buffer, mesh.normals.buffer, mesh.indices.buffer] : [];
+  if (mesh?.colors) transfer.push(mesh.colors.buffer);
   return [
     {
       ready: decoder.ready,

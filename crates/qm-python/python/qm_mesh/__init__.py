@@ -99,6 +99,25 @@ def _faces(faces: Any, what: str = "") -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.int64)
 
 
+def _colors(colors: Any, n: int) -> Optional[np.ndarray]:
+    """Vertex colours as the library takes them: float32 RGBA, sRGB, 0..1."""
+    if colors is None:
+        return None
+    a = np.asarray(colors)
+    if a.ndim != 2 or a.shape[0] != n or a.shape[1] not in (3, 4):
+        raise ParameterError(f"colors must have shape ({n}, 3) or ({n}, 4), one per vertex, not {a.shape}")
+    if a.dtype == np.uint8:
+        a = a.astype(np.float32) / 255
+    elif a.dtype.kind == "f":
+        if not (np.isfinite(a).all() and a.min(initial=0) >= 0 and a.max(initial=0) <= 1):
+            raise ParameterError("colors as floats must be finite and within 0..1")
+    else:
+        raise ParameterError(f"colors must be uint8 (0..255) or floats (0..1), not dtype {a.dtype}")
+    if a.shape[1] == 3:
+        a = np.concatenate([a, np.ones((n, 1), dtype=a.dtype)], axis=1)
+    return np.ascontiguousarray(a, dtype=np.float32)
+
+
 def _count(name: str, value: Optional[int]) -> Optional[int]:
     """An optional whole number, 0 or more, as the library takes it."""
     if value is None:
@@ -132,6 +151,7 @@ def encode(
     accept_folds: bool = False,
     min_remesh_psnr: float = _DEFAULT_MIN_REMESH_PSNR,
     max_memory: Optional[int] = None,
+    colors: Any = None,
 ) -> bytes:
     """Compresses a mesh into the bytes of a ``.qm`` file.
 
@@ -155,13 +175,18 @@ def encode(
       the remesher's settings.
     - ``max_memory``: most bytes remeshing and encoding may take (default
       4 GiB), estimated before the work starts.
+    - ``colors``: vertex colours, sRGB, one per vertex: uint8 ``(n, 3)``
+      or ``(n, 4)`` (0..255) or floats (0..1); alpha is not carried. The
+      colour of the surface at each sample is coded with the geometry, so
+      that every prefix gives both (:attr:`Decoded.colors`).
 
     Raises :class:`DataError` for a mesh that cannot be remeshed,
     :class:`LimitError` past ``max_memory``, :class:`ParameterError` for
     bad arrays or settings.
     """
+    v = _vertices(vertices)
     return _native.encode(
-        _vertices(vertices),
+        v,
         _faces(faces),
         _count("bits", bits),
         _count("passes", passes),
@@ -174,6 +199,7 @@ def encode(
         bool(accept_folds),
         float(min_remesh_psnr),
         _count("max_memory", max_memory),
+        _colors(colors, len(v)),
     )
 
 
@@ -223,7 +249,9 @@ def decode(
       1 GiB).
 
     Returns a :class:`Decoded`: ``vertices`` (float64, ``(n, 3)``),
-    ``faces`` (uint32 quads, ``(m, 4)``), ``triangles``, ``level``,
+    ``faces`` (uint32 quads, ``(m, 4)``), ``colors`` (for a file with
+    colours, 8-bit sRGB per vertex, uint8 ``(n, 3)``; else None),
+    ``triangles``, ``level``,
     ``passes``, ``truncated``, ``error`` and ``psnr_db`` (the decoder's
     estimate). Raises :class:`TruncatedError` for bytes that end inside the
     header or base mesh, :class:`DataError` for bytes that are not ``.qm``

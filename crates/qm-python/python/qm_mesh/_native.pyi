@@ -25,6 +25,9 @@ class Decoded:
     def faces(self) -> npt.NDArray[np.uint32]:
         """Quads as vertex indices, counter-clockwise, uint32, shape (m, 4)."""
     @property
+    def colors(self) -> Optional[npt.NDArray[np.uint8]]:
+        """For a file with colours: 8-bit sRGB per vertex, uint8, shape (n, 3); else None."""
+    @property
     def triangles(self) -> npt.NDArray[np.uint32]:
         """The quads split along their first diagonal, uint32, shape (2m, 3)."""
     @property
@@ -119,6 +122,7 @@ def encode(
     accept_folds: bool,
     min_remesh_psnr: float,
     max_memory: Optional[int],
+    colors: Optional[npt.NDArray[np.float32]],
 ) -> bytes: ...
 def decode(data: bytes, options: DecodeOptions) -> Decoded: ...
 def info(data: bytes, max_memory: Optional[int]) -> Dict[str, Any]: ...

@@ -16,7 +16,7 @@ _DECODE_KEYS = ("max_bytes", "max_error", "level", "max_triangles", "passes", "t
 def load_qm(file_obj: Any, file_type: Any = None, resolver: Any = None, **kwargs: Any) -> dict:
     """trimesh loader: the ``.qm`` file's mesh, at the level its bytes
     support, as the keyword arguments of a ``Trimesh`` (the quads split
-    into triangles). ``trimesh.load("x.qm", max_error=..., level=...)``
+    into triangles; a file's colours as ``vertex_colors``). ``trimesh.load("x.qm", max_error=..., level=...)``
     passes the decoder's options through."""
     from . import decode
 
@@ -31,15 +31,21 @@ def load_qm(file_obj: Any, file_type: Any = None, resolver: Any = None, **kwargs
         "error": decoded.error,
         "psnr_db": decoded.psnr_db,
     }
-    return {"vertices": decoded.vertices, "faces": decoded.triangles, "metadata": metadata}
+    mesh = {"vertices": decoded.vertices, "faces": decoded.triangles, "metadata": metadata}
+    if decoded.colors is not None:
+        mesh["vertex_colors"] = decoded.colors
+    return mesh
 
 
 def export_qm(mesh: Any, **kwargs: Any) -> bytes:
     """trimesh exporter: ``mesh.export("x.qm", bits=14, ...)`` encodes the
-    mesh with :func:`qm_mesh.encode` and its keyword arguments."""
+    mesh with :func:`qm_mesh.encode` and its keyword arguments, with the
+    mesh's vertex colours if it has some."""
     from . import encode
 
     kwargs.pop("resolver", None)
+    if getattr(mesh.visual, "kind", None) == "vertex" and "colors" not in kwargs:
+        kwargs["colors"] = mesh.visual.vertex_colors
     return encode(mesh.vertices, mesh.faces, **kwargs)
 
 

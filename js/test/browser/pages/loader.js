@@ -5,7 +5,7 @@
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/examples/jsm/loaders/GLTFLoader.js';
 import { GLTFQMExtension, QMError, QMLoader } from 'three-qm-loader';
-import { decode, ready } from 'qm-decoder';
+import { StreamDecoder, decode, ready } from 'qm-decoder';
 
 const canvas = document.getElementById('view');
 const renderer = new THREE.WebGLRenderer({ canvas, antialias: false, preserveDrawingBuffer: true });
@@ -182,6 +182,49 @@ window.qmTest = {
     });
   },
 
+  // A coloured file: qm-decoder on this thread in chunks (the colours of
+  // every refinement), then the loader (decoding in its workers) into a
+  // geometry drawn with vertex colours: the color attribute at every
+  // update, and at the end read back to sRGB bytes as three.js outputs them.
+  async colours(url) {
+    await ready();
+    const bytes = new Uint8Array(await (await fetch(url, { cache: 'no-store' })).arrayBuffer());
+    const decoded = [];
+    const d = new StreamDecoder({ level: 'finest' });
+    for (let at = 0; at < bytes.length; at += 509) {
+      if (!d.push(bytes.subarray(at, at + 509))) continue;
+      const m = d.refine();
+      if (m) decoded.push({ bytesUsed: m.bytesUsed, level: m.level, vertexCount: m.vertexCount, colors: m.colors && Array.from(m.colors) });
+    }
+    d.dispose();
+    const updates = [];
+    const stream = loader.stream(url, {
+      level: 'finest',
+      requestInit: { cache: 'no-store' },
+      onUpdate: ({ geometry, vertexCount }) => {
+        const c = geometry.getAttribute('color');
+        updates.push({ vertexCount, count: c?.count, itemSize: c?.itemSize, normalized: c?.normalized, type: c?.array.constructor.name });
+      },
+    });
+    const mesh = new THREE.Mesh(stream.geometry, new THREE.MeshBasicMaterial({ vertexColors: true }));
+    show(mesh);
+    try {
+      await stream.done;
+    } catch (e) {
+      return { ok: false, error: errorInfo(e) };
+    }
+    frame(mesh);
+    await nextFrames(2);
+    const linear = stream.geometry.getAttribute('color').array;
+    const shownColors = [];
+    const c = new THREE.Color();
+    for (let i = 0; i < linear.length; i += 3) {
+      const hex = c.setRGB(linear[i] / 65535, linear[i + 1] / 65535, linear[i + 2] / 65535).getHex();
+      shownColors.push(hex >> 16, (hex >> 8) & 255, hex & 255);
+    }
+    return { ok: true, decoded, updates, shownColors, covered: covered() };
+  },
+
   // A GLB: with plain GLTFLoader (the fallback), or with the plugin.
   async gltf(url, { plugin = false, options = {} } = {}) {
     const gltfLoader = new GLTFLoader();
@@ -203,7 +246,17 @@ window.qmTest = {
       if (extension) {
         const results = await extension.done;
         await nextFrames(2);
-        final = { level: results[0].level, bytes: results[0].bytes, bytesUsed: results[0].bytesUsed, error: results[0].error, vertexCount: mesh.geometry.getAttribute('position').count, sameGeometry: results[0].geometry === mesh.geometry, ...geometryInfo(mesh.geometry) };
+        const color = mesh.geometry.getAttribute('color');
+        final = {
+          level: results[0].level,
+          bytes: results[0].bytes,
+          bytesUsed: results[0].bytesUsed,
+          error: results[0].error,
+          vertexCount: mesh.geometry.getAttribute('position').count,
+          sameGeometry: results[0].geometry === mesh.geometry,
+          color: color && { count: color.count, type: color.array.constructor.name, vertexColors: mesh.material.vertexColors, sharedMaterialChanged: material.vertexColors },
+          ...geometryInfo(mesh.geometry),
+        };
       }
       return { ok: true, fallback, fallbackCovered, final, updates, covered: covered() };
     } catch (e) {
