@@ -55,6 +55,7 @@ mod curves;
 mod decode_time;
 mod details;
 mod memory;
+mod pcd_mesh;
 mod plot;
 mod rd;
 mod remesh_bench;
@@ -80,6 +81,7 @@ fn main() -> ExitCode {
         Some("memory") => memory::run(&args[1..]),
         Some("scale") => scale::run(&args[1..]),
         Some("appearance") => appearance::run(&args[1..]),
+        Some("pcd-mesh") => pcd_mesh::run(&args[1..]),
         _ => Err("usage: cargo xtask pass-table [MESH ...]\n       \
                   cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]\n       \
                   cargo xtask remesh-bench [--level L] [--normal-remesh on|off] [--runs N] [--against XTASK] [MESH ...]\n       \
@@ -92,7 +94,8 @@ fn main() -> ExitCode {
                   cargo xtask decode-time FILE.qm [--runs N] [--bytes N ...]\n       \
                   cargo xtask memory [--max-level L] [MESH[:DOMAIN] ...]\n       \
                   cargo xtask scale [--sizes 0.5M,2M,8M] [--mesh FILE] [--max-memory SIZE] [--no-draco] [--keep DIR]\n       \
-                  cargo xtask appearance [--samples N] [FILE ...]"
+                  cargo xtask appearance [--samples N] [FILE ...]\n       \
+                  cargo xtask pcd-mesh IN.pcd OUT.ply"
             .to_string()),
     };
     match result {
