@@ -246,7 +246,6 @@ pub(crate) fn fill(
 ) {
     values.clear();
     values.resize(layout.sample_count(), [0; 3]);
-    let base = (layout.base().vertex_count() as usize).min(decoded.base_low.len());
     for ((v, centre), unknown) in values
         .iter_mut()
         .zip(&decoded.base_low)
@@ -257,7 +256,6 @@ pub(crate) fn fill(
             lo + within_range(centre[c], unknown[c], (0, hi - lo))
         });
     }
-    debug_assert!(base <= decoded.base_unknown.len());
     let (from, to) = (tree.numbering(), layout.numbering());
     let samples = tree.samples();
     for e in &decoded.nonzero {

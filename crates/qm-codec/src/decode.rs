@@ -419,11 +419,7 @@ impl Decoder {
             &colour.header,
             &mut values,
         );
-        let levels = colour.tree.levels();
-        let top = (decoded.nonzero.iter())
-            .map(|e| levels[e.node as usize] as u32)
-            .max()
-            .unwrap_or(0);
+        let top = top_level(&colour.tree, decoded);
         let update = UpdateRule::from_code(self.header.update).expect("checked by the container");
         synthesize(
             &Lifting::new(&self.layout, update),
@@ -669,11 +665,7 @@ impl Decoder {
 
     /// The finest level with a coefficient that is not zero (0 for none).
     fn top_level(&self, decoded: &qm_ezw::Decoded) -> u32 {
-        let levels = self.tree.levels();
-        (decoded.nonzero.iter())
-            .map(|e| levels[e.node as usize] as u32)
-            .max()
-            .unwrap_or(0)
+        top_level(&self.tree, decoded)
     }
 
     /// The inverse lifting of `values` from level `from` to `to`. The
@@ -799,6 +791,16 @@ impl Decoder {
             }
         }
     }
+}
+
+/// The finest level of `tree` with a coefficient of `decoded` that is not
+/// zero (0 for none).
+fn top_level(tree: &ZeroTree, decoded: &qm_ezw::Decoded) -> u32 {
+    let levels = tree.levels();
+    (decoded.nonzero.iter())
+        .map(|e| levels[e.node as usize] as u32)
+        .max()
+        .unwrap_or(0)
 }
 
 /// The inverse `lifting` of `values` from level `from` to `to`, the

@@ -296,34 +296,34 @@ fn colour_headers_round_trip_and_bad_ones_are_refused() {
         },
     ];
     for (i, colour) in bad.into_iter().enumerate() {
-        let bytes = encode_header(&Header {
+        let file = sealed_header(&Header {
             colour: Some(colour),
             ..coloured.clone()
-        })
-        .unwrap();
-        let mut file = MAGIC.to_vec();
-        file.push(VERSION);
-        file.extend_from_slice(&(bytes.len() as u16).to_le_bytes());
-        file.extend_from_slice(&bytes);
-        file.extend_from_slice(&crc32(&file).to_le_bytes());
+        });
         match read(&file, &Limits::DEFAULT) {
             Err(Error::Malformed { what }) => assert!(what.contains("colour"), "case {i}: {what}"),
             other => panic!("case {i}: {other:?}"),
         }
     }
     // The flag without the header after the holds: the header ends early.
-    let bytes = encode_header(&Header {
+    let file = sealed_header(&Header {
         colour: None,
         ..coloured.clone()
-    })
-    .unwrap();
+    });
+    match read(&file, &Limits::DEFAULT) {
+        Err(Error::Malformed { what }) => assert!(what.contains("colour header"), "{what}"),
+        other => panic!("{other:?}"),
+    }
+}
+
+/// Magic, version, length, `header`'s bytes unchecked and their valid
+/// checksum: what `read` parses before the base section.
+fn sealed_header(header: &Header) -> Vec<u8> {
+    let bytes = encode_header(header).unwrap();
     let mut file = MAGIC.to_vec();
     file.push(VERSION);
     file.extend_from_slice(&(bytes.len() as u16).to_le_bytes());
     file.extend_from_slice(&bytes);
     file.extend_from_slice(&crc32(&file).to_le_bytes());
-    match read(&file, &Limits::DEFAULT) {
-        Err(Error::Malformed { what }) => assert!(what.contains("colour header"), "{what}"),
-        other => panic!("{other:?}"),
-    }
+    file
 }
