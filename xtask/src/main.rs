@@ -6,7 +6,8 @@
 //!   `20 log10(bbox diagonal / RMS)` with RMS the vertex-to-vertex distance
 //!   between corresponding samples and input vertices (exact correspondence
 //!   exists for meshes taken as they are).
-//! - `rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]`: qm's
+//! - `rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]
+//!   [--base-domain auto|square|charts|input]`: qm's
 //!   rate-distortion curve against Google Draco's command-line coder on each
 //!   mesh (default: the bundled meshes in `assets/`), measured as surface
 //!   distance to the input; writes `rd.csv`, `table1.md`, `summary.md`,
@@ -30,6 +31,8 @@
 //! - `stress DIR`: writes four generated meshes of hard topology into `DIR`
 //!   (genus 12, 100 holes, 300 parts, a ragged open height field) and prints
 //!   their topology. See [`stress`].
+//! - `cad DIR`: renders ten of OpenSCAD's CC0 examples (needs Debian's
+//!   `openscad`) into welded OBJ meshes: faceted CAD parts. See [`cad`].
 //! - `valence [--max N]`: encode time against the valence of one vertex
 //!   (fan-capped cylinders and n-gons of 100 to 10,000). See [`valence`].
 //! - `decode-time FILE.qm [--runs N] [--bytes N ...]`: the median time of
@@ -50,6 +53,7 @@ use qm::{DecodeOptions, EncodeOptions};
 mod ab;
 mod appearance;
 mod budget;
+mod cad;
 mod corpus;
 mod curves;
 mod decode_time;
@@ -76,6 +80,7 @@ fn main() -> ExitCode {
         Some("budget") => budget::run(&args[1..]),
         Some("corpus") => corpus::run(&args[1..]),
         Some("stress") => stress::run(&args[1..]),
+        Some("cad") => cad::run(&args[1..]),
         Some("valence") => valence::run(&args[1..]),
         Some("decode-time") => decode_time::run(&args[1..]),
         Some("memory") => memory::run(&args[1..]),
@@ -83,13 +88,14 @@ fn main() -> ExitCode {
         Some("appearance") => appearance::run(&args[1..]),
         Some("pcd-mesh") => pcd_mesh::run(&args[1..]),
         _ => Err("usage: cargo xtask pass-table [MESH ...]\n       \
-                  cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]\n       \
+                  cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH] [--base-domain D]\n       \
                   cargo xtask remesh-bench [--level L] [--normal-remesh on|off] [--runs N] [--against XTASK] [MESH ...]\n       \
                   cargo xtask ab [--models FILE|DIR ...] [--a SPEC] [--b SPEC] [--cuts N] [--out FILE]\n       \
                   cargo xtask details [FILE|DIR ...]\n       \
                   cargo xtask budget [--models FILE|DIR ...] [--db DB ...]\n       \
                   cargo xtask corpus\n       \
                   cargo xtask stress DIR\n       \
+                  cargo xtask cad DIR\n       \
                   cargo xtask valence [--max N]\n       \
                   cargo xtask decode-time FILE.qm [--runs N] [--bytes N ...]\n       \
                   cargo xtask memory [--max-level L] [MESH[:DOMAIN] ...]\n       \

@@ -39,13 +39,17 @@ struct Args {
     models: Vec<PathBuf>,
     out: PathBuf,
     draco: Option<PathBuf>,
+    /// `--base-domain`: the remesher's choice of base domain for every model.
+    domain: qm::param::BaseDomain,
 }
 
 fn parse_args(args: &[String]) -> Result<Args, String> {
-    let usage = "usage: cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH]";
+    let usage = "usage: cargo xtask rd-curve [--models FILE|DIR ...] [--out DIR] [--draco PATH] \
+                 [--base-domain auto|square|charts|input]";
     let mut models = Vec::new();
     let mut out = None;
     let mut draco = None;
+    let mut domain = qm::param::BaseDomain::Auto;
     let mut i = 0;
     while i < args.len() {
         match args[i].as_str() {
@@ -64,6 +68,15 @@ fn parse_args(args: &[String]) -> Result<Args, String> {
             }
             "--out" => out = Some(PathBuf::from(args.get(i + 1).ok_or(usage)?)),
             "--draco" => draco = Some(PathBuf::from(args.get(i + 1).ok_or(usage)?)),
+            "--base-domain" => {
+                domain = match args.get(i + 1).map(String::as_str) {
+                    Some("auto") => qm::param::BaseDomain::Auto,
+                    Some("square") => qm::param::BaseDomain::Square,
+                    Some("charts") => qm::param::BaseDomain::Charts,
+                    Some("input") => qm::param::BaseDomain::Input,
+                    _ => return Err(usage.to_string()),
+                }
+            }
             "-h" | "--help" => return Err(usage.to_string()),
             other => return Err(format!("unknown argument {other}\n{usage}")),
         }
@@ -91,6 +104,7 @@ fn parse_args(args: &[String]) -> Result<Args, String> {
         models,
         out: out.unwrap_or_else(|| crate::workspace().join("target/rd")),
         draco,
+        domain,
     })
 }
 
@@ -163,7 +177,7 @@ pub fn run(args: &[String]) -> Result<(), String> {
     let started = Instant::now();
     let mut results = Vec::new();
     for file in &args.models {
-        let r = model(file, draco.as_ref(), &bar)?;
+        let r = model(file, draco.as_ref(), args.domain, &bar)?;
         results.push(r);
     }
     bar.finish_and_clear();
@@ -205,7 +219,12 @@ pub fn measure(input: &PolyMesh, recon: &PolyMesh) -> Result<DistanceReport, Str
     .map_err(|e| e.to_string())
 }
 
-fn model(file: &Path, draco: Option<&Draco>, bar: &ProgressBar) -> Result<ModelResult, String> {
+fn model(
+    file: &Path,
+    draco: Option<&Draco>,
+    domain: qm::param::BaseDomain,
+    bar: &ProgressBar,
+) -> Result<ModelResult, String> {
     let name = file_name(file);
     let at = |e: String| format!("{}: {e}", file.display());
     bar.set_message(format!("{name}: prepare + compress"));
@@ -217,7 +236,8 @@ fn model(file: &Path, draco: Option<&Draco>, bar: &ProgressBar) -> Result<ModelR
     let bpv = |bytes: usize| bytes as f64 * 8.0 / n as f64;
 
     let t = Instant::now();
-    let prepared = qm::prepare(&input, &RemeshOptions::DEFAULT).map_err(|e| at(e.to_string()))?;
+    let options = RemeshOptions::DEFAULT.with_domain(domain);
+    let prepared = qm::prepare(&input, &options).map_err(|e| at(e.to_string()))?;
     let prepare_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let compressed = qm::encode_prepared(&prepared, &input, &EncodeOptions::DEFAULT)

@@ -24,7 +24,7 @@ use qm_lift::split_triangles;
 
 use connectivity::{FaceModel, TriangleModel, face_bit, split_of};
 use numbers::IntModel;
-use values::{Predictor, coded_values};
+use values::{ChoiceModel, Predictor, coded_values};
 pub(crate) use values::{SNAP_STEPS, corner_count, noise_bits, snap_split};
 
 /// The format version this build writes; it reads this one and
@@ -32,8 +32,10 @@ pub(crate) use values::{SNAP_STEPS, corner_count, noise_bits, snap_split};
 /// versions differ only in how the base section codes its faces
 /// (this module): version 2 by new and recent vertices, version 3 also a
 /// split triangle mesh by its triangles, version 4 those triangles' vertices
-/// beside the edge they attach to by a flag.
-pub const VERSION: u8 = 4;
+/// beside the edge they attach to by a flag, version 5 a split base's
+/// corners by the parallelograms the encoder chose among those across
+/// their known triangles.
+pub const VERSION: u8 = 5;
 
 /// The oldest format version this build reads: the first published one.
 pub const OLDEST: u8 = 1;
@@ -68,10 +70,33 @@ pub(crate) fn encode(
     version: u8,
     implied: bool,
 ) -> Vec<u8> {
+    let plain = encode_choosing(faces, values, version, implied, false);
+    // Version 5 on: a split base's corners predicted by the parallelograms
+    // the encoder names, where that is shorter.
+    if version >= 5 && split_of(faces, values.len(), version).is_some() {
+        let chosen = encode_choosing(faces, values, version, implied, true);
+        if chosen.len() < plain.len() {
+            return chosen;
+        }
+    }
+    plain
+}
+
+/// [`encode`], with the corners' parallelograms chosen or not.
+fn encode_choosing(
+    faces: &[[u32; 4]],
+    values: &[[i32; 3]],
+    version: u8,
+    implied: bool,
+    choose: bool,
+) -> Vec<u8> {
     let mut w = BitWriter::new();
     let split = split_of(faces, values.len(), version);
     if version >= 3 {
         w.encode(&mut Context::default(), split.is_some());
+    }
+    if version >= 5 && split.is_some() {
+        w.encode(&mut Context::default(), choose);
     }
     match &split {
         Some(triangles) => {
@@ -83,11 +108,15 @@ pub(crate) fn encode(
             faces.iter().for_each(|face| model.put(&mut w, face));
         }
     }
-    let predictor = Predictor::new(faces, values.len(), split.as_deref());
+    let predictor = Predictor::new(faces, values.len(), split.as_deref(), choose);
     let coded = coded_values(split.as_deref(), values.len(), implied);
     let mut coord = vec![IntModel::new(); 3];
+    let mut choice = ChoiceModel::default();
     for (v, value) in values.iter().enumerate().take(coded) {
-        let p = predictor.predict(v, values);
+        let guess = predictor.guess(v, values);
+        let mask = guess.best(value);
+        choice.put(&mut w, &guess, mask);
+        let p = guess.with(mask);
         for i in 0..3 {
             coord[i].put(&mut w, value[i] as i64 - p[i]);
         }
@@ -123,6 +152,7 @@ pub(crate) fn decode(
     let range = (i32::MIN >> low_bits) as i64..=(i32::MAX >> low_bits) as i64;
     let mut r = BitReader::new(bytes);
     let split = version >= 3 && face_bit(&mut r, &mut Context::default())?;
+    let choose = version >= 5 && split && face_bit(&mut r, &mut Context::default())?;
     let (faces, triangles) = if split {
         if face_count % 3 != 0 {
             return Err(format!(
@@ -153,12 +183,14 @@ pub(crate) fn decode(
     if implied && triangles.is_none() {
         return Err("its midpoints and centres are said to be implied, but it is no split".into());
     }
-    let predictor = Predictor::new(&faces, vertex_count, triangles.as_deref());
+    let predictor = Predictor::new(&faces, vertex_count, triangles.as_deref(), choose);
     let coded = coded_values(triangles.as_deref(), vertex_count, implied);
     let mut coord = vec![IntModel::new(); 3];
+    let mut choice = ChoiceModel::default();
     let mut values = Vec::with_capacity(vertex_count.min(bytes.len()));
     for v in 0..coded {
-        let p = predictor.predict(v, &values);
+        let guess = predictor.guess(v, &values);
+        let p = guess.with(choice.get(&mut r, &guess)?);
         let mut value = [0i32; 3];
         for i in 0..3 {
             let x = p[i] + coord[i].get(&mut r)?;

@@ -19,6 +19,8 @@
 
 use std::collections::HashMap;
 
+use qm_ezw::{BitReader, BitWriter, Context};
+
 use super::connectivity::split_of;
 
 /// Faces around each vertex, as a compressed list.
@@ -60,6 +62,63 @@ pub(super) struct Predictor<'a> {
     faces: &'a [[u32; 4]],
     incidence: Incidence,
     split: Option<Split<'a>>,
+    /// A split base's corner with several parallelograms is predicted by
+    /// the ones the encoder chose ([`Guess::Among`]; format version 5 on,
+    /// where the section's flag says so).
+    choose: bool,
+}
+
+/// Most parallelograms a corner chooses among ([`Guess::Among`]); more are
+/// left out, in triangle order.
+pub(super) const MOST_CHOICES: usize = 4;
+
+/// A vertex's prediction: one value, or (format version 5 on, a split
+/// base's corner across two or more known triangles) the parallelograms
+/// across them, of which the encoder names a subset whose floored mean is
+/// the prediction (the constrained multi-parallelogram rule: on a faceted
+/// mesh the parallelograms across a crease are far off, the ones on the
+/// same flat face exact).
+pub(super) enum Guess {
+    One([i64; 3]),
+    Among(Vec<[i64; 3]>),
+}
+
+impl Guess {
+    /// The prediction for subset `mask` of the parallelograms (ignored
+    /// for [`Guess::One`]).
+    pub(super) fn with(&self, mask: u32) -> [i64; 3] {
+        match self {
+            Guess::One(p) => *p,
+            Guess::Among(choices) => {
+                let mut mean = Mean::default();
+                for (i, c) in choices.iter().enumerate() {
+                    if mask >> i & 1 != 0 {
+                        mean.add(*c, 1);
+                    }
+                }
+                mean.get().unwrap_or(choices[0])
+            }
+        }
+    }
+
+    /// The subset the encoder names for `value`: the one whose residual
+    /// has the fewest significant bits over the three coordinates, then
+    /// the smallest sum, the fuller first (0 for [`Guess::One`]).
+    pub(super) fn best(&self, value: &[i32; 3]) -> u32 {
+        let Guess::Among(choices) = self else {
+            return 0;
+        };
+        let full = (1u32 << choices.len()) - 1;
+        let cost = |mask: u32| {
+            let p = self.with(mask);
+            (0..3).fold((0u32, 0u64), |(bits, sum), i| {
+                let r = (value[i] as i64 - p[i]).unsigned_abs();
+                (bits + (64 - r.leading_zeros()), sum + r)
+            })
+        };
+        // All of them where nothing is better.
+        (1..=full).rev().min_by_key(|&m| cost(m)).unwrap_or(full)
+    }
 }
 
 /// A split base's triangles, over corners `0..corners`.
@@ -96,6 +155,7 @@ impl<'a> Predictor<'a> {
         faces: &'a [[u32; 4]],
         vertices: usize,
         triangles: Option<&'a [[u32; 3]]>,
+        choose: bool,
     ) -> Self {
         let split = triangles.map(|triangles| {
             let corners = triangles
@@ -117,7 +177,23 @@ impl<'a> Predictor<'a> {
             faces,
             incidence: Incidence::new(faces, vertices),
             split,
+            choose,
         }
+    }
+
+    /// [`Self::predict`], or for a corner with several parallelograms
+    /// (where it chooses) those to choose among.
+    pub(super) fn guess(&self, v: usize, values: &[[i32; 3]]) -> Guess {
+        if self.choose
+            && let Some(split) = &self.split
+            && v < split.around.start.len() - 1
+        {
+            let choices = split.parallelograms(v, values);
+            if choices.len() >= 2 {
+                return Guess::Among(choices);
+            }
+        }
+        Guess::One(self.predict(v, values))
     }
 
     /// Prediction of vertex `v`'s value from the values of vertices `0..v`.
@@ -175,6 +251,32 @@ impl Split<'_> {
             quadratic.add(std::array::from_fn(|i| 4 * m[i] - a[i]), 3);
         }
         quadratic.get()
+    }
+
+    /// The parallelograms across the edges opposite corner `v` whose
+    /// triangle beyond is known, at most [`MOST_CHOICES`], in the order of
+    /// the triangles around `v`.
+    fn parallelograms(&self, v: usize, values: &[[i32; 3]]) -> Vec<[i64; 3]> {
+        let known = |u: u32| (u as usize) < v;
+        let value = |u: u32| values[u as usize].map(i64::from);
+        let mut found = Vec::new();
+        for &t in self.around.around(v) {
+            let t = self.triangles[t as usize];
+            let Some(k) = t.iter().position(|&u| u as usize == v) else {
+                continue;
+            };
+            let (a, b) = (t[(k + 1) % 3], t[(k + 2) % 3]);
+            if let Some(&y) =
+                (self.opposite.get(&(b, a))).filter(|&&y| known(a) && known(b) && known(y))
+            {
+                let (va, vb, y) = (value(a), value(b), value(y));
+                found.push(std::array::from_fn(|i| va[i] + vb[i] - y[i]));
+                if found.len() == MOST_CHOICES {
+                    break;
+                }
+            }
+        }
+        found
     }
 
     /// Corner `v` over the triangles: the mean parallelogram across the
@@ -243,7 +345,7 @@ pub(crate) fn snap_split(
     most: i64,
 ) -> bool {
     let corners = corner_count(triangles);
-    let predictor = Predictor::new(faces, values.len(), Some(triangles));
+    let predictor = Predictor::new(faces, values.len(), Some(triangles), false);
     let mut snapped = values.to_vec();
     for v in corners..values.len() {
         let p = predictor.predict(v, &snapped);
@@ -269,7 +371,8 @@ pub(crate) fn noise_bits(
     implied: bool,
 ) -> u32 {
     let split = split_of(faces, values.len(), version);
-    let predictor = Predictor::new(faces, values.len(), split.as_deref());
+    // The parallelograms' means alone: the noise is the surface's.
+    let predictor = Predictor::new(faces, values.len(), split.as_deref(), false);
     let coded = coded_values(split.as_deref(), values.len(), implied);
     let keeps = if split.is_some() { SPLIT_KEEPS } else { KEEPS };
     median_residual_length(&predictor, &values[..coded]).saturating_sub(keeps)
@@ -310,5 +413,49 @@ pub(super) fn coded_values(split: Option<&[[u32; 3]]>, vertices: usize, implied:
     match split {
         Some(triangles) if implied => corner_count(triangles).min(vertices),
         _ => vertices,
+    }
+}
+
+/// The subsets a version 5 corner names ([`Guess::Among`]): a flag per
+/// parallelogram, in context of how many there are and which one it is;
+/// the last flag is left out where the others are all clear (a subset is
+/// never empty).
+#[derive(Default)]
+pub(super) struct ChoiceModel {
+    flags: [[Context; MOST_CHOICES]; MOST_CHOICES - 1],
+}
+
+impl ChoiceModel {
+    pub(super) fn put(&mut self, w: &mut BitWriter, guess: &Guess, mask: u32) {
+        let Guess::Among(choices) = guess else {
+            return;
+        };
+        let n = choices.len();
+        for i in 0..n {
+            if i + 1 == n && mask & ((1 << i) - 1) == 0 {
+                break;
+            }
+            w.encode(&mut self.flags[n - 2][i], mask >> i & 1 != 0);
+        }
+    }
+
+    pub(super) fn get(&mut self, r: &mut BitReader, guess: &Guess) -> Result<u32, String> {
+        let Guess::Among(choices) = guess else {
+            return Ok(0);
+        };
+        let n = choices.len();
+        let mut mask = 0;
+        for i in 0..n {
+            if i + 1 == n && mask == 0 {
+                mask |= 1 << i;
+                break;
+            }
+            if r.decode(&mut self.flags[n - 2][i])
+                .map_err(|_| "it ends before its last value".to_string())?
+            {
+                mask |= 1 << i;
+            }
+        }
+        Ok(mask)
     }
 }
