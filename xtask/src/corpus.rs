@@ -191,10 +191,10 @@ fn cases(v: &Valid) -> Vec<Case> {
             "bad magic bytes",
         ),
         case(
-            "qm-version-5.qm",
-            "version byte 5, as development builds wrote before the published format (header checksum valid)",
-            v.with_header_raw(5, v.header_raw()),
-            "format version 5 is not supported",
+            "qm-version-0.qm",
+            "version byte 0, below the first published version (header checksum valid)",
+            v.with_header_raw(0, v.header_raw()),
+            "format version 0 is not supported",
         ),
         case(
             "qm-version-6.qm",
