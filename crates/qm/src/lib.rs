@@ -34,11 +34,13 @@
 #[doc = include_str!("../../../README.md")]
 pub struct ReadmeDoctests;
 
+mod choice;
 mod error;
 pub mod gltf;
 
 use std::path::Path;
 
+pub use choice::RATE_CHOICE_MOST_TRIANGLES;
 pub use error::{Error, ErrorKind, Result};
 pub use qm_codec as codec;
 pub use qm_ezw as ezw;
@@ -328,11 +330,12 @@ pub fn prepare_reporting(
         }
     }
     let r = qm_param::remesh_reporting(mesh, options, report)?;
-    Ok(Prepared {
+    let remeshed = Prepared {
         mesh: r.mesh,
         source: None,
         remeshed: Some(r.report),
-    })
+    };
+    choice::by_rate(mesh, remeshed, options, report)
 }
 
 /// The second half of [`encode`]: compresses `prepared`, made from `input`
