@@ -24,7 +24,7 @@ use qm_lift::split_triangles;
 
 use connectivity::{FaceModel, TriangleModel, face_bit, split_of};
 use numbers::IntModel;
-use values::{ChoiceModel, Predictor, coded_values};
+use values::{ChoiceModel, Corners, Predictor, coded_values};
 pub(crate) use values::{SNAP_STEPS, corner_count, noise_bits, snap_split};
 
 /// The format version this build writes; it reads this one and
@@ -70,25 +70,26 @@ pub(crate) fn encode(
     version: u8,
     implied: bool,
 ) -> Vec<u8> {
-    let plain = encode_choosing(faces, values, version, implied, false);
+    let plain = encode_choosing(faces, values, version, implied, Corners::Plain);
     // Version 5 on: a split base's corners predicted by the parallelograms
-    // the encoder names, where that is shorter.
-    if version >= 5 && split_of(faces, values.len(), version).is_some() {
-        let chosen = encode_choosing(faces, values, version, implied, true);
-        if chosen.len() < plain.len() {
-            return chosen;
-        }
+    // the encoder names, in vertex order or in the order that gives them
+    // the most, where that is shorter.
+    if version < 5 || split_of(faces, values.len(), version).is_none() {
+        return plain;
     }
-    plain
+    [Corners::Chosen, Corners::ChosenInOrder]
+        .into_iter()
+        .map(|corners| encode_choosing(faces, values, version, implied, corners))
+        .fold(plain, |best, b| if b.len() < best.len() { b } else { best })
 }
 
-/// [`encode`], with the corners' parallelograms chosen or not.
+/// [`encode`], with a split base's corners predicted as `corners` says.
 fn encode_choosing(
     faces: &[[u32; 4]],
     values: &[[i32; 3]],
     version: u8,
     implied: bool,
-    choose: bool,
+    corners: Corners,
 ) -> Vec<u8> {
     let mut w = BitWriter::new();
     let split = split_of(faces, values.len(), version);
@@ -96,7 +97,10 @@ fn encode_choosing(
         w.encode(&mut Context::default(), split.is_some());
     }
     if version >= 5 && split.is_some() {
-        w.encode(&mut Context::default(), choose);
+        w.encode(&mut Context::default(), corners != Corners::Plain);
+        if corners != Corners::Plain {
+            w.encode(&mut Context::default(), corners == Corners::ChosenInOrder);
+        }
     }
     match &split {
         Some(triangles) => {
@@ -108,11 +112,12 @@ fn encode_choosing(
             faces.iter().for_each(|face| model.put(&mut w, face));
         }
     }
-    let predictor = Predictor::new(faces, values.len(), split.as_deref(), choose);
+    let predictor = Predictor::new(faces, values.len(), split.as_deref(), corners);
     let coded = coded_values(split.as_deref(), values.len(), implied);
     let mut coord = vec![IntModel::new(); 3];
     let mut choice = ChoiceModel::default();
-    for (v, value) in values.iter().enumerate().take(coded) {
+    for v in predictor.coding_order(coded) {
+        let value = &values[v];
         let guess = predictor.guess(v, values);
         let mask = guess.best(value);
         choice.put(&mut w, &guess, mask);
@@ -152,7 +157,14 @@ pub(crate) fn decode(
     let range = (i32::MIN >> low_bits) as i64..=(i32::MAX >> low_bits) as i64;
     let mut r = BitReader::new(bytes);
     let split = version >= 3 && face_bit(&mut r, &mut Context::default())?;
-    let choose = version >= 5 && split && face_bit(&mut r, &mut Context::default())?;
+    let corners = if version >= 5 && split && face_bit(&mut r, &mut Context::default())? {
+        match face_bit(&mut r, &mut Context::default())? {
+            true => Corners::ChosenInOrder,
+            false => Corners::Chosen,
+        }
+    } else {
+        Corners::Plain
+    };
     let (faces, triangles) = if split {
         if face_count % 3 != 0 {
             return Err(format!(
@@ -183,12 +195,13 @@ pub(crate) fn decode(
     if implied && triangles.is_none() {
         return Err("its midpoints and centres are said to be implied, but it is no split".into());
     }
-    let predictor = Predictor::new(&faces, vertex_count, triangles.as_deref(), choose);
+    let predictor = Predictor::new(&faces, vertex_count, triangles.as_deref(), corners);
     let coded = coded_values(triangles.as_deref(), vertex_count, implied);
     let mut coord = vec![IntModel::new(); 3];
     let mut choice = ChoiceModel::default();
-    let mut values = Vec::with_capacity(vertex_count.min(bytes.len()));
-    for v in 0..coded {
+    // The values not coded stay 0, for the caller to predict.
+    let mut values = vec![[0i32; 3]; vertex_count];
+    for v in predictor.coding_order(coded) {
         let guess = predictor.guess(v, &values);
         let p = guess.with(choice.get(&mut r, &guess)?);
         let mut value = [0i32; 3];
@@ -199,9 +212,8 @@ pub(crate) fn decode(
             }
             value[i] = x as i32;
         }
-        values.push(value);
+        values[v] = value;
     }
-    values.resize(vertex_count, [0; 3]);
     Ok(BaseSection {
         faces,
         values,

@@ -68,6 +68,18 @@ pub(super) struct Predictor<'a> {
     choose: bool,
 }
 
+/// How a split base's corners are predicted (format version 5 on, where
+/// the section's flags say so; the encoder keeps the shortest).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Corners {
+    /// By the floored mean of their parallelograms (versions 3 and 4).
+    Plain,
+    /// By the parallelograms the encoder names ([`Guess::Among`]).
+    Chosen,
+    /// So, and coded in their [`prediction_order`].
+    ChosenInOrder,
+}
+
 /// Most parallelograms a corner chooses among ([`Guess::Among`]); more are
 /// left out, in triangle order.
 pub(super) const MOST_CHOICES: usize = 4;
@@ -129,6 +141,101 @@ struct Split<'a> {
     opposite: HashMap<(u32, u32), u32>,
     /// The first centre's id: triangle `t`'s is `first_centre + t`.
     first_centre: usize,
+    /// Where the corners choose their parallelograms: the order they are
+    /// coded in ([`prediction_order`]) and each corner's place in it.
+    order: Option<(Vec<u32>, Vec<u32>)>,
+}
+
+/// The order in which [`Corners::ChosenInOrder`] codes a split base's `corners`: next a
+/// corner with the most parallelograms already known (up to 3), else the
+/// most neighbours coded (up to 3), the one reached last among equals; from
+/// corner 0 and then each part's first corner. In the order of first use
+/// along the triangles a corner of a faceted part often has one
+/// parallelogram known, across a crease; coded later, it has the one on
+/// its own face too (Draco's prediction-degree traversal does the same).
+fn prediction_order(
+    around: &Incidence,
+    triangles: &[[u32; 3]],
+    opposite: &HashMap<(u32, u32), u32>,
+    corners: usize,
+) -> Vec<u32> {
+    let mut coded = vec![false; corners];
+    let mut waiting: [Vec<u32>; 8] = Default::default();
+    let mut key = vec![0usize; corners];
+    let mut order = Vec::with_capacity(corners);
+    // Parallelograms known to `u`, and its neighbours coded.
+    let score = |u: usize, coded: &[bool]| {
+        let (mut parallelograms, mut neighbours) = (0, 0);
+        for &t in around.around(u) {
+            let t = triangles[t as usize];
+            let Some(k) = t.iter().position(|&x| x as usize == u) else {
+                continue;
+            };
+            let (a, b) = (t[(k + 1) % 3], t[(k + 2) % 3]);
+            neighbours += usize::from(coded[a as usize]) + usize::from(coded[b as usize]);
+            if coded[a as usize]
+                && coded[b as usize]
+                && opposite.get(&(b, a)).is_some_and(|&y| coded[y as usize])
+            {
+                parallelograms += 1;
+            }
+        }
+        if parallelograms > 0 {
+            4 + parallelograms.min(3)
+        } else {
+            neighbours.min(3)
+        }
+    };
+    let mut seed = 0;
+    loop {
+        let mut next = None;
+        for k in (1..waiting.len()).rev() {
+            while let Some(u) = waiting[k].pop() {
+                if !coded[u as usize] && key[u as usize] == k {
+                    next = Some(u);
+                    break;
+                }
+            }
+            if next.is_some() {
+                break;
+            }
+        }
+        let v = match next {
+            Some(v) => v,
+            None => {
+                while seed < corners && coded[seed] {
+                    seed += 1;
+                }
+                if seed == corners {
+                    break;
+                }
+                seed as u32
+            }
+        };
+        coded[v as usize] = true;
+        order.push(v);
+        // Those whose parallelograms or neighbours `v` may complete: its
+        // neighbours, and the vertices across the edges opposite it.
+        for &t in around.around(v as usize) {
+            let t = triangles[t as usize];
+            let Some(k) = t.iter().position(|&x| x == v) else {
+                continue;
+            };
+            let (a, b) = (t[(k + 1) % 3], t[(k + 2) % 3]);
+            let across = opposite.get(&(b, a)).copied();
+            for u in [Some(a), Some(b), across].into_iter().flatten() {
+                let u = u as usize;
+                if u < corners && !coded[u] {
+                    let k = score(u, &coded);
+                    if k != key[u] || k > 0 {
+                        key[u] = k;
+                        waiting[k].push(u as u32);
+                    }
+                }
+            }
+        }
+    }
+    order
 }
 
 /// Summed predictions and how many values they sum, for a floored mean.
@@ -155,8 +262,9 @@ impl<'a> Predictor<'a> {
         faces: &'a [[u32; 4]],
         vertices: usize,
         triangles: Option<&'a [[u32; 3]]>,
-        choose: bool,
+        mode: Corners,
     ) -> Self {
+        let choose = mode != Corners::Plain;
         let split = triangles.map(|triangles| {
             let corners = triangles
                 .iter()
@@ -166,11 +274,21 @@ impl<'a> Predictor<'a> {
             let opposite = (triangles.iter())
                 .flat_map(|t| (0..3).map(move |i| ((t[i], t[(i + 1) % 3]), t[(i + 2) % 3])))
                 .collect();
+            let around = Incidence::new(triangles, corners);
+            let order = (mode == Corners::ChosenInOrder).then(|| {
+                let order = prediction_order(&around, triangles, &opposite, corners);
+                let mut place = vec![0u32; corners];
+                for (i, &c) in order.iter().enumerate() {
+                    place[c as usize] = i as u32;
+                }
+                (order, place)
+            });
             Split {
                 triangles,
-                around: Incidence::new(triangles, corners),
+                around,
                 opposite,
                 first_centre: vertices - triangles.len(),
+                order,
             }
         });
         Predictor {
@@ -178,6 +296,17 @@ impl<'a> Predictor<'a> {
             incidence: Incidence::new(faces, vertices),
             split,
             choose,
+        }
+    }
+
+    /// The order the values are coded in: a choosing split base's corners
+    /// in their [`prediction_order`], then the others; else vertex order.
+    pub(super) fn coding_order(&self, vertices: usize) -> Vec<usize> {
+        match self.split.as_ref().and_then(|s| s.order.as_ref()) {
+            Some((order, _)) => (order.iter().map(|&c| c as usize))
+                .chain(order.len()..vertices)
+                .collect(),
+            None => (0..vertices).collect(),
         }
     }
 
@@ -196,16 +325,23 @@ impl<'a> Predictor<'a> {
         Guess::One(self.predict(v, values))
     }
 
-    /// Prediction of vertex `v`'s value from the values of vertices `0..v`.
+    /// Prediction of vertex `v`'s value from the values of the vertices
+    /// before it in the [`Self::coding_order`].
     pub(super) fn predict(&self, v: usize, values: &[[i32; 3]]) -> [i64; 3] {
         let over_triangles = self
             .split
             .as_ref()
             .and_then(|s| s.predict(v, self.faces, values));
         let predicted = over_triangles.or_else(|| self.over_quads(v, values));
-        predicted.unwrap_or(match v {
-            0 => [0; 3],
-            _ => values[v - 1].map(i64::from),
+        let previous = match self.split.as_ref().and_then(|s| s.order.as_ref()) {
+            Some((order, place)) if v < order.len() => (place[v] as usize)
+                .checked_sub(1)
+                .map(|i| order[i] as usize),
+            _ => v.checked_sub(1),
+        };
+        predicted.unwrap_or(match previous {
+            None => [0; 3],
+            Some(u) => values[u].map(i64::from),
         })
     }
 
@@ -234,6 +370,14 @@ impl<'a> Predictor<'a> {
 }
 
 impl Split<'_> {
+    /// Whether corner `u` is coded before corner `v`.
+    fn before(&self, u: usize, v: usize) -> bool {
+        match &self.order {
+            Some((_, place)) => place[u] < place[v],
+            None => u < v,
+        }
+    }
+
     /// Vertex `v` over the triangles: a corner (below), or a centre, as the
     /// quadratic through its triangle's corners and midpoints takes it,
     /// `(4 (m_ab + m_bc + m_ca) - (a + b + c)) / 9`. A midpoint is left to
@@ -257,7 +401,7 @@ impl Split<'_> {
     /// triangle beyond is known, at most [`MOST_CHOICES`], in the order of
     /// the triangles around `v`.
     fn parallelograms(&self, v: usize, values: &[[i32; 3]]) -> Vec<[i64; 3]> {
-        let known = |u: u32| (u as usize) < v;
+        let known = |u: u32| self.before(u as usize, v);
         let value = |u: u32| values[u as usize].map(i64::from);
         let mut found = Vec::new();
         for &t in self.around.around(v) {
@@ -283,7 +427,7 @@ impl Split<'_> {
     /// edges opposite it whose triangle beyond is known, else the mean
     /// midpoint of the known edges opposite it, else its known neighbours.
     fn corner(&self, v: usize, values: &[[i32; 3]]) -> Option<[i64; 3]> {
-        let known = |u: u32| (u as usize) < v;
+        let known = |u: u32| self.before(u as usize, v);
         let value = |u: u32| values[u as usize].map(i64::from);
         let [mut parallelograms, mut midpoints, mut neighbours] = [(); 3].map(|_| Mean::default());
         for &t in self.around.around(v) {
@@ -345,7 +489,7 @@ pub(crate) fn snap_split(
     most: i64,
 ) -> bool {
     let corners = corner_count(triangles);
-    let predictor = Predictor::new(faces, values.len(), Some(triangles), false);
+    let predictor = Predictor::new(faces, values.len(), Some(triangles), Corners::Plain);
     let mut snapped = values.to_vec();
     for v in corners..values.len() {
         let p = predictor.predict(v, &snapped);
@@ -372,7 +516,7 @@ pub(crate) fn noise_bits(
 ) -> u32 {
     let split = split_of(faces, values.len(), version);
     // The parallelograms' means alone: the noise is the surface's.
-    let predictor = Predictor::new(faces, values.len(), split.as_deref(), false);
+    let predictor = Predictor::new(faces, values.len(), split.as_deref(), Corners::Plain);
     let coded = coded_values(split.as_deref(), values.len(), implied);
     let keeps = if split.is_some() { SPLIT_KEEPS } else { KEEPS };
     median_residual_length(&predictor, &values[..coded]).saturating_sub(keeps)
