@@ -80,6 +80,8 @@ pub fn run(args: &[String]) -> Result<(), String> {
             values: &data[..coded],
             most: header.stream_params().base_bits,
             whole: false,
+            // This build's geometry rounds its base values.
+            rounded: true,
         };
         let budgets = qm::ezw::bit_budget(
             &tree,

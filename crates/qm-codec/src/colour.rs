@@ -145,6 +145,7 @@ pub(crate) fn encode(
         values: &values,
         most: bits.max(1),
         whole: true,
+        rounded: false,
     };
     let encoded = qm_ezw::encode(
         &tree,

@@ -269,6 +269,9 @@ pub struct Decoder {
     /// The base section's values: high parts when the stream holds low bits
     /// (with the split implied, those of the corners, and zeros).
     base_values: Vec<Coord>,
+    /// What to subtract from a base value joined from its high part and
+    /// low bits ([`container::base_offset`]).
+    base_offset: i32,
     /// With the split implied ([`container::IMPLIED_SPLIT`]): the base's
     /// triangles, whose corners alone have values, the other base values
     /// being made from them.
@@ -348,11 +351,13 @@ impl Decoder {
             .implied()
             .then(|| basecode::split_triangles_of(layout.base().faces(), h.base_vertices as usize))
             .flatten();
+        let base_offset = container::base_offset(c.version, h.stream_params().base_bits);
         Ok(Decoder {
             checkpoint: None,
             header: h,
             split,
             base_values: c.base.values,
+            base_offset,
             layout,
             tree,
             quantizer,
@@ -770,9 +775,12 @@ impl Decoder {
         values.resize(self.layout.sample_count(), [0; 3]);
         values[..self.base_values.len()].copy_from_slice(&self.base_values);
         if !decoded.base_low.is_empty() {
-            // The container checked that high and low parts fit 32 bits.
+            // The container checked that high and low parts fit 32 bits;
+            // a hostile file's lowest high part, less the offset, saturates.
             for (v, low) in values.iter_mut().zip(&decoded.base_low) {
-                *v = std::array::from_fn(|c| (v[c] << k) + low[c]);
+                *v = std::array::from_fn(|c| {
+                    ((v[c] << k) + low[c]).saturating_sub(self.base_offset)
+                });
             }
         }
         if let Some(triangles) = &self.split {

@@ -302,6 +302,7 @@ fn compress_with(
         values: &values[..corners.unwrap_or(values.len())],
         most,
         whole: false,
+        rounded: true,
     });
 
     let encoded = qm_ezw::encode(
@@ -332,7 +333,10 @@ fn compress_with(
     };
     let section = BaseSection {
         faces: base.faces().to_vec(),
-        values: values.iter().map(|v| v.map(|x| x >> low_bits)).collect(),
+        values: values
+            .iter()
+            .map(|v| v.map(|x| container::rounded_high(x, low_bits)))
+            .collect(),
         low_bits,
     };
     let bytes = container::write(&header, &section, &encoded.bytes)?;

@@ -160,4 +160,11 @@ pub struct BaseBits<'a> {
     /// for values below `2^most` (non-negative), whose high parts are then
     /// all zero and need no storing (`qm-codec`'s colours).
     pub whole: bool,
+    /// Carry the low bits of each value plus half the step of the stream's
+    /// `k = base_bits` (`v + 2^(k-1)`), so that the caller's high part
+    /// `(v + 2^(k-1)) >> k` is the value rounded, not floored: with no low
+    /// bit known, a decoder's centre of the cell, minus that half, is the
+    /// nearest multiple of `2^k` (format version 5 on for geometry). A CAD
+    /// part's coordinates at its bounding box are multiples of it.
+    pub rounded: bool,
 }

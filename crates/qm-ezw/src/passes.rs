@@ -54,10 +54,22 @@ pub(crate) fn code_passes<C: Coder>(
     coder: &mut C,
     mut after_pass: impl FnMut(&C),
 ) -> StreamParams {
+    // Rounded base values carry their low bits plus half the step.
+    let half = (params.base_bits > 0).then(|| 1i32 << (params.base_bits - 1));
+    let shifted: Vec<Coef> = match (base, half) {
+        (Some(b), Some(half)) if b.rounded => {
+            b.values.iter().map(|v| v.map(|x| x + half)).collect()
+        }
+        _ => Vec::new(),
+    };
     let mut oracle = Truth {
         coefs,
         below: &below,
-        base: base.map_or(&[], |b| b.values),
+        base: match base {
+            Some(b) if b.rounded && half.is_some() => &shifted,
+            Some(b) => b.values,
+            None => &[],
+        },
     };
     let mut state = State::new(tree, params);
     for pass in 0..params.passes {

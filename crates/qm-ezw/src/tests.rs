@@ -133,6 +133,7 @@ fn base_bits_are_lossless() {
                 values: &b,
                 most,
                 whole: false,
+                rounded: false,
             });
             let fewer = encode(&tree, &c, base, weighting, Contexts::default(), None);
             assert_eq!(fewer.params.base_bits, most.min(bits));
@@ -162,6 +163,7 @@ fn whole_base_values_get_planes_of_their_own() {
             values: &b,
             most: 11,
             whole,
+            rounded: false,
         });
         let enc = encode(&tree, &c, base, weighting, Contexts::default(), None);
         let dec = decode(&mut tree, enc.params, &enc.bytes, None);
@@ -188,7 +190,52 @@ fn all_bits(b: &[Coef]) -> Option<BaseBits<'_>> {
         values: b,
         most: MAX_BASE_BITS,
         whole: false,
+        rounded: false,
     })
+}
+
+/// Rounded base values: the stream carries `v + 2^(k-1)`'s low bits, the
+/// caller keeps `(v + 2^(k-1)) >> k`; the last pass gives `v` back, and
+/// with no pass decoded the centre of the cell, less the half, is `v`
+/// rounded to a multiple of `2^k`, exact for multiples of it.
+#[test]
+fn rounded_base_values_come_back_and_round() {
+    let mut tree = ZeroTree::new(&layout(4));
+    let mut b = base(&tree, 7);
+    b[0] = [0, 1 << 12, -(1 << 11)];
+    let c = coefs(&tree, 3);
+    let base = Some(BaseBits {
+        values: &b,
+        most: MAX_BASE_BITS,
+        whole: false,
+        rounded: true,
+    });
+    let enc = encode(
+        &tree,
+        &c,
+        base,
+        Weighting::default(),
+        Contexts::default(),
+        None,
+    );
+    let k = enc.params.base_bits;
+    assert!(k > 2);
+    let half = 1 << (k - 1);
+    let join = |dec: &Decoded| -> Vec<Coef> {
+        b.iter()
+            .zip(&dec.base_low)
+            .map(|(v, low)| std::array::from_fn(|i| (((v[i] + half) >> k) << k) + low[i] - half))
+            .collect()
+    };
+    let dec = decode(&mut tree, enc.params, &enc.bytes, None);
+    assert_eq!(dec.coefs(), c);
+    assert_eq!(join(&dec), b);
+    let none = decode(&mut tree, enc.params, &enc.bytes, Some(0));
+    let rounded = join(&none);
+    assert_eq!(rounded[0], b[0]);
+    for (r, v) in rounded.iter().zip(&b) {
+        assert!((0..3).all(|i| (r[i] - v[i]).abs() <= half), "{r:?} {v:?}");
+    }
 }
 
 /// Each base bit goes in the pass of its weighted plane: after `p`

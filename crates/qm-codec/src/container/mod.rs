@@ -225,6 +225,8 @@ pub struct Container<'a> {
     pub header_bytes: usize,
     /// Bytes of the base section with its length and checksum.
     pub base_bytes: usize,
+    /// The format version (byte 4).
+    pub version: u8,
 }
 
 fn config() -> bincode::config::Configuration {
@@ -524,7 +526,27 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
         stream: &data[header_bytes + base_bytes..],
         header_bytes,
         base_bytes,
+        version,
     })
+}
+
+/// The high part a base value `v` is stored as when the stream holds its
+/// low `k` bits: rounded, `(v + 2^(k-1)) >> k`, from format version 5 on
+/// ([`qm_ezw::BaseBits::rounded`]); the stream's low bits are those of
+/// `v + 2^(k-1)`.
+pub fn rounded_high(v: i32, k: u32) -> i32 {
+    (v + base_offset(VERSION, k)) >> k
+}
+
+/// What a decoder subtracts from a base value made of its high part and
+/// the stream's low `k` bits: half their step from format version 5 on
+/// (where the high parts are rounded), else 0.
+pub fn base_offset(version: u8, k: u32) -> i32 {
+    if version >= 5 && k > 0 {
+        1 << (k - 1)
+    } else {
+        0
+    }
 }
 
 /// The value at the start of `raw`, and the bytes it took.
