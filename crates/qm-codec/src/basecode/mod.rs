@@ -23,8 +23,7 @@ use qm_ezw::{BitReader, BitWriter, Context};
 use qm_lift::split_triangles;
 
 use connectivity::{FaceModel, TriangleModel, face_bit, split_of};
-use numbers::IntModel;
-use values::{ChoiceModel, Corners, Predictor, coded_values};
+use values::{ChoiceModel, Corners, Predictor, ValueModels, coded_values};
 pub(crate) use values::{SNAP_STEPS, corner_count, noise_bits, snap_split};
 
 /// The format version this build writes; it reads this one and
@@ -114,7 +113,7 @@ fn encode_choosing(
     }
     let predictor = Predictor::new(faces, values.len(), split.as_deref(), corners);
     let coded = coded_values(split.as_deref(), values.len(), implied);
-    let mut coord = vec![IntModel::new(); 3];
+    let mut coord = ValueModels::new(version);
     let mut choice = ChoiceModel::default();
     for v in predictor.coding_order(coded) {
         let value = &values[v];
@@ -122,9 +121,8 @@ fn encode_choosing(
         let mask = guess.best(value);
         choice.put(&mut w, &guess, mask);
         let p = guess.with(mask);
-        for i in 0..3 {
-            coord[i].put(&mut w, value[i] as i64 - p[i]);
-        }
+        let residual: [i64; 3] = std::array::from_fn(|i| value[i] as i64 - p[i]);
+        coord.put(&mut w, &guess, residual);
     }
     w.finish()
 }
@@ -197,16 +195,17 @@ pub(crate) fn decode(
     }
     let predictor = Predictor::new(&faces, vertex_count, triangles.as_deref(), corners);
     let coded = coded_values(triangles.as_deref(), vertex_count, implied);
-    let mut coord = vec![IntModel::new(); 3];
+    let mut coord = ValueModels::new(version);
     let mut choice = ChoiceModel::default();
     // The values not coded stay 0, for the caller to predict.
     let mut values = vec![[0i32; 3]; vertex_count];
     for v in predictor.coding_order(coded) {
         let guess = predictor.guess(v, &values);
         let p = guess.with(choice.get(&mut r, &guess)?);
+        let residual = coord.get(&mut r, &guess)?;
         let mut value = [0i32; 3];
         for i in 0..3 {
-            let x = p[i] + coord[i].get(&mut r)?;
+            let x = p[i] + residual[i];
             if !range.contains(&x) {
                 return Err(format!("base vertex {v} has a value out of range"));
             }

@@ -22,6 +22,7 @@ use std::collections::HashMap;
 use qm_ezw::{BitReader, BitWriter, Context};
 
 use super::connectivity::split_of;
+use super::numbers::IntModel;
 
 /// Faces around each vertex, as a compressed list.
 struct Incidence {
@@ -601,5 +602,57 @@ impl ChoiceModel {
             }
         }
         Ok(mask)
+    }
+}
+
+/// The models of the values' residuals: one per coordinate (versions 1 to
+/// 4); from version 5 on also per kind of prediction (a choice among
+/// parallelograms, or one value) and per whether the coordinate before in
+/// the same vertex was exact. A chosen parallelogram on a flat face often
+/// gives all three coordinates exactly, a single one across a crease
+/// none: apart, each model learns its own spread (1 to 2% off a faceted
+/// base section).
+pub(super) struct ValueModels {
+    models: Vec<IntModel>,
+    split: bool,
+}
+
+impl ValueModels {
+    pub(super) fn new(version: u8) -> Self {
+        let split = version >= 5;
+        ValueModels {
+            models: vec![IntModel::new(); if split { 12 } else { 3 }],
+            split,
+        }
+    }
+
+    /// The model of coordinate `i` after a predicted value of kind
+    /// `guess`, the coordinate before exact or not.
+    fn index(&self, guess: &Guess, i: usize, exact_before: bool) -> usize {
+        if !self.split {
+            return i;
+        }
+        let among = usize::from(matches!(guess, Guess::Among(_)));
+        (among * 3 + i) * 2 + usize::from(exact_before)
+    }
+
+    pub(super) fn put(&mut self, w: &mut BitWriter, guess: &Guess, residual: [i64; 3]) {
+        let mut exact = false;
+        for (i, &r) in residual.iter().enumerate() {
+            let k = self.index(guess, i, exact);
+            self.models[k].put(w, r);
+            exact = r == 0;
+        }
+    }
+
+    pub(super) fn get(&mut self, r: &mut BitReader, guess: &Guess) -> Result<[i64; 3], String> {
+        let mut residual = [0i64; 3];
+        let mut exact = false;
+        for i in 0..3 {
+            let k = self.index(guess, i, exact);
+            residual[i] = self.models[k].get(r)?;
+            exact = residual[i] == 0;
+        }
+        Ok(residual)
     }
 }
