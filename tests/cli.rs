@@ -762,6 +762,8 @@ fn compress_names_every_attribute_it_cannot_carry() {
     );
     assert_eq!(v["dropped"][0]["count"], 8);
     assert_eq!(v["colour"], true);
+    assert_eq!(v["base_domain"], "input");
+    assert!(v["base_domain_why"].is_null(), "asked for: {v}");
     assert_eq!(
         v["bytes"].as_u64().unwrap(),
         std::fs::metadata(d.join("j.qm")).unwrap().len()
@@ -803,6 +805,12 @@ fn compress_names_every_attribute_it_cannot_carry() {
         assert_eq!(kinds, expected, "{name}");
         let coloured = !geometry_only && !name.starts_with("quad");
         assert_eq!(v["colour"], coloured, "{name}");
+        // A quad mesh is taken as it is: no base domain.
+        assert_eq!(
+            v["base_domain"].is_null(),
+            name.starts_with("quad"),
+            "{name}"
+        );
         assert_eq!(
             warnings(&out).len(),
             expected.len(),

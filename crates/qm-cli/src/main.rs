@@ -157,8 +157,9 @@ enum Command {
         /// gets one colour per sample, coded with the geometry).
         #[arg(long)]
         geometry_only: bool,
-        /// Print a JSON summary on stdout, with the list of what was not
-        /// carried (`dropped`).
+        /// Print a JSON summary on stdout: sizes, the base domain taken and
+        /// why (`base_domain`, `base_domain_why`), and the list of what was
+        /// not carried (`dropped`).
         #[arg(long)]
         json: bool,
         /// No progress, summary or warning output (--json still lists what
@@ -465,6 +466,13 @@ struct CompressSummary {
     samples: usize,
     base_quads: usize,
     level: u32,
+    /// The base domain of a remeshed input (`square`, `charts` or `input`;
+    /// null for a quad mesh taken as it is).
+    base_domain: Option<&'static str>,
+    /// Why `auto` took it, where it was not its first choice.
+    base_domain_why: Option<String>,
+    /// The remesh's PSNR against the input, where it was measured.
+    remesh_psnr: Option<f64>,
     /// Whether the stream carries a colour per sample.
     colour: bool,
     /// What the stream does not carry, one entry a kind.
@@ -575,6 +583,12 @@ fn compress(
             samples: compressed.samples,
             base_quads: compressed.base_quads,
             level: compressed.level,
+            base_domain: compressed.remeshed.as_ref().map(|r| r.domain),
+            base_domain_why: compressed
+                .remeshed
+                .as_ref()
+                .and_then(|r| r.fallback.clone()),
+            remesh_psnr: compressed.remeshed.as_ref().and_then(|r| r.psnr),
             colour: coloured,
             dropped: dropped
                 .into_iter()
