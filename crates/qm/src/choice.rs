@@ -1,25 +1,21 @@
 //! `auto`'s last choice, made by rate: where the remesher kept a remesh of
-//! a small input, its own triangles are compressed beside it, both streams
-//! are cut at their pass ends and measured against the input, and the one
-//! that reaches 65 and 78 dB with fewer bytes is taken
-//! (docs/decisions/036-rate-choice.md).
+//! a small input (at most [`EXACT_MOST_TRIANGLES`] triangles, the size up
+//! to which it sends an input as its own triangles at all), its own
+//! triangles are compressed beside it, both streams are cut at their pass
+//! ends and measured against the input, and the one that reaches 65 and 78
+//! dB with fewer bytes is taken (docs/decisions/036-rate-choice.md).
 //!
 //! The remesher's own rule (docs/decisions/001-auto-base-domain.md) keeps
 //! a remesh that measures 80 dB or better; on faceted CAD meshes such a
-//! remesh still needs two to six times Draco's bytes at 78 dB, where the
-//! input's own triangles need about a third of that.
+//! remesh needed two to six times Draco's bytes at 78 dB, the input's own
+//! triangles a quarter to a half of that.
 
 use qm_codec::EncodeOptions;
 use qm_param::Step;
 use qm_param::distance::{DistanceOptions, distance};
-use qm_param::remesh::BaseDomain;
+use qm_param::remesh::{BaseDomain, EXACT_MOST_TRIANGLES};
 
 use crate::{DecodeOptions, PolyMesh, Prepared, RemeshOptions, Result, decode};
-
-/// The most triangles an input may have for `auto` to weigh its own
-/// triangles against its remesh by rate: the base section of such an input
-/// arrives whole, and the trial costs an encode and a few measures of each.
-pub const RATE_CHOICE_MOST_TRIANGLES: usize = 20_000;
 
 /// The PSNRs the two streams are compared at, in dB: the rates, a
 /// first good picture and one close to the input.
@@ -45,7 +41,7 @@ pub(crate) fn by_rate(
     if options.domain != BaseDomain::Auto
         || options.level.is_some()
         || report.domain == "input"
-        || triangles > RATE_CHOICE_MOST_TRIANGLES
+        || triangles > EXACT_MOST_TRIANGLES
     {
         return Ok(remeshed);
     }
@@ -53,7 +49,7 @@ pub(crate) fn by_rate(
     let Ok(exact) = qm_param::remesh(mesh, &options.with_domain(BaseDomain::Input)) else {
         return Ok(remeshed);
     };
-    let exact = Prepared {
+    let mut exact = Prepared {
         mesh: exact.mesh,
         source: None,
         remeshed: Some(exact.report),
@@ -67,7 +63,6 @@ pub(crate) fn by_rate(
     if !better(&theirs, &ours) {
         return Ok(remeshed);
     }
-    let mut exact = exact;
     if let Some(r) = &mut exact.remeshed {
         let say = |b: &[Option<f64>; 2]| {
             b.map(|x| x.map_or("more".to_string(), |x| format!("{x:.0} B")))

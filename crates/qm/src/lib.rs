@@ -40,7 +40,6 @@ pub mod gltf;
 
 use std::path::Path;
 
-pub use choice::RATE_CHOICE_MOST_TRIANGLES;
 pub use error::{Error, ErrorKind, Result};
 pub use qm_codec as codec;
 pub use qm_ezw as ezw;

@@ -69,29 +69,32 @@ pub(crate) fn encode(
     version: u8,
     implied: bool,
 ) -> Vec<u8> {
-    let plain = encode_choosing(faces, values, version, implied, Corners::Plain);
+    let split = split_of(faces, values.len(), version);
+    let split = split.as_deref();
+    let plain = encode_choosing(faces, values, version, split, implied, Corners::Plain);
     // Version 5 on: a split base's corners predicted by the parallelograms
     // the encoder names, in vertex order or in the order that gives them
     // the most, where that is shorter.
-    if version < 5 || split_of(faces, values.len(), version).is_none() {
+    if version < 5 || split.is_none() {
         return plain;
     }
     [Corners::Chosen, Corners::ChosenInOrder]
         .into_iter()
-        .map(|corners| encode_choosing(faces, values, version, implied, corners))
+        .map(|corners| encode_choosing(faces, values, version, split, implied, corners))
         .fold(plain, |best, b| if b.len() < best.len() { b } else { best })
 }
 
-/// [`encode`], with a split base's corners predicted as `corners` says.
+/// [`encode`] of a base that is the `split` of those triangles (or none),
+/// with its corners predicted as `corners` says.
 fn encode_choosing(
     faces: &[[u32; 4]],
     values: &[[i32; 3]],
     version: u8,
+    split: Option<&[[u32; 3]]>,
     implied: bool,
     corners: Corners,
 ) -> Vec<u8> {
     let mut w = BitWriter::new();
-    let split = split_of(faces, values.len(), version);
     if version >= 3 {
         w.encode(&mut Context::default(), split.is_some());
     }
@@ -101,7 +104,7 @@ fn encode_choosing(
             w.encode(&mut Context::default(), corners == Corners::ChosenInOrder);
         }
     }
-    match &split {
+    match split {
         Some(triangles) => {
             let mut model = TriangleModel::new(values.len() as u32, version);
             triangles.iter().for_each(|t| model.put(&mut w, t));
@@ -111,8 +114,8 @@ fn encode_choosing(
             faces.iter().for_each(|face| model.put(&mut w, face));
         }
     }
-    let predictor = Predictor::new(faces, values.len(), split.as_deref(), corners);
-    let coded = coded_values(split.as_deref(), values.len(), implied);
+    let predictor = Predictor::new(faces, values.len(), split, corners);
+    let coded = coded_values(split, values.len(), implied);
     let mut coord = ValueModels::new(version);
     let mut choice = ChoiceModel::default();
     for v in predictor.coding_order(coded) {

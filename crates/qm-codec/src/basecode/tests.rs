@@ -330,9 +330,10 @@ fn corners_by_chosen_parallelograms_cost_less_in_version_5() {
         five.len()
     );
     // Each way of predicting the corners comes back, whole or cut.
-    let corners = corner_count(&unsplit(&faces, values.len() as u32).unwrap());
+    let triangles = unsplit(&faces, values.len() as u32).unwrap();
+    let corners = corner_count(&triangles);
     for mode in [Corners::Plain, Corners::Chosen, Corners::ChosenInOrder] {
-        let bytes = encode_choosing(&faces, &values, 5, true, mode);
+        let bytes = encode_choosing(&faces, &values, 5, Some(&triangles), true, mode);
         let got = decode(&bytes, faces.len(), values.len(), 0, 5, true).unwrap();
         assert_eq!(got.faces, faces);
         assert_eq!(got.values[..corners], values[..corners], "{mode:?}");

@@ -147,6 +147,23 @@ struct Split<'a> {
     order: Option<(Vec<u32>, Vec<u32>)>,
 }
 
+/// For each triangle around corner `v`, in triangle order: its other two
+/// corners `a`, `b` (counter-clockwise from `v`) and the vertex across the
+/// edge `a b` from it, if a triangle holds `b a`.
+fn fan<'s>(
+    around: &'s Incidence,
+    triangles: &'s [[u32; 3]],
+    opposite: &'s HashMap<(u32, u32), u32>,
+    v: usize,
+) -> impl Iterator<Item = (u32, u32, Option<u32>)> + 's {
+    around.around(v).iter().filter_map(move |&t| {
+        let t = triangles[t as usize];
+        let k = t.iter().position(|&u| u as usize == v)?;
+        let (a, b) = (t[(k + 1) % 3], t[(k + 2) % 3]);
+        Some((a, b, opposite.get(&(b, a)).copied()))
+    })
+}
+
 /// The order in which [`Corners::ChosenInOrder`] codes a split base's `corners`: next a
 /// corner with the most parallelograms already known (up to 3), else the
 /// most neighbours coded (up to 3), the one reached last among equals; from
@@ -167,17 +184,10 @@ fn prediction_order(
     // Parallelograms known to `u`, and its neighbours coded.
     let score = |u: usize, coded: &[bool]| {
         let (mut parallelograms, mut neighbours) = (0, 0);
-        for &t in around.around(u) {
-            let t = triangles[t as usize];
-            let Some(k) = t.iter().position(|&x| x as usize == u) else {
-                continue;
-            };
-            let (a, b) = (t[(k + 1) % 3], t[(k + 2) % 3]);
-            neighbours += usize::from(coded[a as usize]) + usize::from(coded[b as usize]);
-            if coded[a as usize]
-                && coded[b as usize]
-                && opposite.get(&(b, a)).is_some_and(|&y| coded[y as usize])
-            {
+        for (a, b, across) in fan(around, triangles, opposite, u) {
+            let (a, b) = (coded[a as usize], coded[b as usize]);
+            neighbours += usize::from(a) + usize::from(b);
+            if a && b && across.is_some_and(|y| coded[y as usize]) {
                 parallelograms += 1;
             }
         }
@@ -217,13 +227,7 @@ fn prediction_order(
         order.push(v);
         // Those whose parallelograms or neighbours `v` may complete: its
         // neighbours, and the vertices across the edges opposite it.
-        for &t in around.around(v as usize) {
-            let t = triangles[t as usize];
-            let Some(k) = t.iter().position(|&x| x == v) else {
-                continue;
-            };
-            let (a, b) = (t[(k + 1) % 3], t[(k + 2) % 3]);
-            let across = opposite.get(&(b, a)).copied();
+        for (a, b, across) in fan(around, triangles, opposite, v as usize) {
             for u in [Some(a), Some(b), across].into_iter().flatten() {
                 let u = u as usize;
                 if u < corners && !coded[u] {
@@ -371,6 +375,11 @@ impl<'a> Predictor<'a> {
 }
 
 impl Split<'_> {
+    /// [`fan`] of corner `v`.
+    fn fan(&self, v: usize) -> impl Iterator<Item = (u32, u32, Option<u32>)> + '_ {
+        fan(&self.around, self.triangles, &self.opposite, v)
+    }
+
     /// Whether corner `u` is coded before corner `v`.
     fn before(&self, u: usize, v: usize) -> bool {
         match &self.order {
@@ -405,15 +414,8 @@ impl Split<'_> {
         let known = |u: u32| self.before(u as usize, v);
         let value = |u: u32| values[u as usize].map(i64::from);
         let mut found = Vec::new();
-        for &t in self.around.around(v) {
-            let t = self.triangles[t as usize];
-            let Some(k) = t.iter().position(|&u| u as usize == v) else {
-                continue;
-            };
-            let (a, b) = (t[(k + 1) % 3], t[(k + 2) % 3]);
-            if let Some(&y) =
-                (self.opposite.get(&(b, a))).filter(|&&y| known(a) && known(b) && known(y))
-            {
+        for (a, b, across) in self.fan(v) {
+            if let Some(y) = across.filter(|&y| known(a) && known(b) && known(y)) {
                 let (va, vb, y) = (value(a), value(b), value(y));
                 found.push(std::array::from_fn(|i| va[i] + vb[i] - y[i]));
                 if found.len() == MOST_CHOICES {
@@ -431,12 +433,7 @@ impl Split<'_> {
         let known = |u: u32| self.before(u as usize, v);
         let value = |u: u32| values[u as usize].map(i64::from);
         let [mut parallelograms, mut midpoints, mut neighbours] = [(); 3].map(|_| Mean::default());
-        for &t in self.around.around(v) {
-            let t = self.triangles[t as usize];
-            let Some(k) = t.iter().position(|&u| u as usize == v) else {
-                continue;
-            };
-            let (a, b) = (t[(k + 1) % 3], t[(k + 2) % 3]);
+        for (a, b, across) in self.fan(v) {
             for u in [a, b].into_iter().filter(|&u| known(u)) {
                 neighbours.add(value(u), 1);
             }
@@ -444,8 +441,8 @@ impl Split<'_> {
                 continue;
             }
             let (va, vb) = (value(a), value(b));
-            match self.opposite.get(&(b, a)).filter(|&&y| known(y)) {
-                Some(&y) => {
+            match across.filter(|&y| known(y)) {
+                Some(y) => {
                     let y = value(y);
                     parallelograms.add(std::array::from_fn(|i| va[i] + vb[i] - y[i]), 1);
                 }
@@ -614,22 +611,23 @@ impl ChoiceModel {
 /// base section).
 pub(super) struct ValueModels {
     models: Vec<IntModel>,
-    split: bool,
+    /// Version 5 on: the models apart by kind and exactness.
+    by_kind: bool,
 }
 
 impl ValueModels {
     pub(super) fn new(version: u8) -> Self {
-        let split = version >= 5;
+        let by_kind = version >= 5;
         ValueModels {
-            models: vec![IntModel::new(); if split { 12 } else { 3 }],
-            split,
+            models: vec![IntModel::new(); if by_kind { 12 } else { 3 }],
+            by_kind,
         }
     }
 
     /// The model of coordinate `i` after a predicted value of kind
     /// `guess`, the coordinate before exact or not.
     fn index(&self, guess: &Guess, i: usize, exact_before: bool) -> usize {
-        if !self.split {
+        if !self.by_kind {
             return i;
         }
         let among = usize::from(matches!(guess, Guess::Among(_)));

@@ -38,7 +38,9 @@ pub(super) const CLEARLY_BETTER_DB: f64 = 2.0;
 /// The most input triangles [`BaseDomain::Auto`] takes as the base itself
 /// ([`BaseDomain::Input`]) where the remesh is not faithful: such a base is
 /// sent whole before anything shows (docs/decisions/001-auto-base-domain.md).
-const EXACT_MOST_TRIANGLES: usize = 20_000;
+/// The facade weighs a kept remesh against the input's own triangles up to
+/// the same size (docs/decisions/036-rate-choice.md).
+pub const EXACT_MOST_TRIANGLES: usize = 20_000;
 
 /// Below this PSNR [`BaseDomain::Auto`] takes a small input's own triangles
 /// as the base instead of its remesh ([`EXACT_MOST_TRIANGLES`]), where they

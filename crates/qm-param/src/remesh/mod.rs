@@ -59,6 +59,7 @@ mod tests;
 use qm_io::PolyMesh;
 use qm_lift::SemiRegularMesh;
 
+pub use auto::EXACT_MOST_TRIANGLES;
 pub use budget::{DENSE_SAMPLES_PER_VERTEX, MAX_SAMPLES_PER_VERTEX};
 use memory::with_memory;
 pub use memory::{
