@@ -185,7 +185,7 @@ fn compress_all(
         .flatten()
         .filter(|t| basecode::snap_split(base.faces(), t, &mut quantized, basecode::SNAP_STEPS))
         .map(|t| basecode::corner_count(&t));
-    let compress_with = |frames| {
+    let compress_with = |frames, prefix| {
         compress_with(
             mesh.layout(),
             quantizer,
@@ -193,10 +193,11 @@ fn compress_all(
             options,
             frames,
             corners,
+            prefix,
         )
     };
     let mut compressed = match options.frames {
-        Frames::Off => compress_with(0)?,
+        Frames::Off => compress_with(0, None)?,
         Frames::ParentsFrom(level) => {
             let kind = level.checked_sub(2).filter(|&k| k >= 1);
             let kind = kind.filter(|&k| k <= container::MAX_FRAMES as u32);
@@ -206,7 +207,7 @@ fn compress_all(
                 min: 3,
                 max: container::MAX_FRAMES as u64 + 2,
             })?;
-            compress_with(kind as u8)?
+            compress_with(kind as u8, None)?
         }
         Frames::Auto => frames::auto(mesh.layout(), &quantized, geometry_budget, compress_with)?,
     };
@@ -271,7 +272,9 @@ fn compress_all(
 }
 
 /// [`compress`] of the `quantized` samples with header frame kind
-/// `frames`, whole stream.
+/// `frames`: the whole stream, or (`prefix`) one coded only as far as its
+/// first `prefix` stream bytes, which are the whole stream's
+/// ([`qm_ezw::encode_prefix`]), to measure cuts of.
 fn compress_with(
     layout: &Layout,
     quantizer: Quantizer,
@@ -279,6 +282,7 @@ fn compress_with(
     options: &EncodeOptions,
     frames: u8,
     corners: Option<usize>,
+    prefix: Option<usize>,
 ) -> Result<Compressed> {
     let mut data = quantized.to_vec();
     Lifting::new(layout, options.update)
@@ -305,13 +309,14 @@ fn compress_with(
         rounded: true,
     });
 
-    let encoded = qm_ezw::encode(
+    let encoded = qm_ezw::encode_prefix(
         &tree,
         &coefs,
         in_stream,
         options.weighting,
         Contexts::Neighbours,
         options.passes,
+        prefix.unwrap_or(usize::MAX),
     );
     let low_bits = encoded.params.base_bits;
     let header = Header {

@@ -13,6 +13,7 @@
 
 use qm_lift::glam::DVec3;
 use qm_lift::{Coord, Layout};
+use rayon::prelude::*;
 
 use crate::Result;
 use crate::compressed::{Compressed, measure_cuts};
@@ -102,32 +103,60 @@ pub(crate) fn auto_search<T>(
     Ok(best)
 }
 
-/// The stream [`Frames::Auto`] keeps: `compress_with` makes the stream of a
-/// frame kind from the `quantized` samples of `layout`; `max_bytes` is the
+/// The stream [`Frames::Auto`] keeps: `compress_with(kind, prefix)` makes
+/// the stream of a frame kind from the `quantized` samples of `layout`,
+/// whole or (`Some(bytes)`) coded only as far as its first `bytes` stream
+/// bytes, which are then those of the whole stream; `max_bytes` is the
 /// encoder's byte budget, which the cuts compared are a share of.
+///
+/// Parents from level 3 and from level 4 are coded whole, at once (both
+/// are always compared, and either may be kept); later starts, which are
+/// all tried once level 4 wins, are coded at once too, each only as far as
+/// the longest cut compared, and the one kept is coded whole again: the
+/// choice and the stream are those of whole encodings one after the other,
+/// at a fraction of their time.
 pub(crate) fn auto(
     layout: &Layout,
     quantized: &[Coord],
     max_bytes: Option<usize>,
-    compress_with: impl Fn(u8) -> Result<Compressed>,
+    compress_with: impl Fn(u8, Option<usize>) -> Result<Compressed> + Sync,
 ) -> Result<Compressed> {
     // Parents from level 3 (kind 1) or 4 (kind 2), whichever cuts
     // come closer; if 4, each later level that brings them more than
     // `AUTO_MIN_GAIN_DB` closer than the best so far. From level
     // `L + 1` (kind `L - 1`) no level takes its frames from the
     // parents.
-    let first = compress_with(1)?;
     let last = last_auto_kind(layout.level());
     if last < 2 {
-        Ok(first)
-    } else {
-        let normals = sample_normals(layout, quantized);
-        // Cuts of what will be sent, shortest first so that each
-        // decode resumes from the previous one's checkpoint.
-        let sent = max_bytes.map_or(first.bytes.len(), |m| m.min(first.bytes.len()));
-        let budgets = AUTO_CUTS.map(|k| sent >> k);
-        let score = |c: &Compressed| cut_error(c, &normals, &budgets);
-        auto_search(first, last, |kind| compress_with(kind as u8), score)
+        return compress_with(1, None);
+    }
+    let (first, second) = rayon::join(|| compress_with(1, None), || compress_with(2, None));
+    let (first, mut second) = (first?, Some(second?));
+    let normals = sample_normals(layout, quantized);
+    // Cuts of what will be sent, shortest first so that each
+    // decode resumes from the previous one's checkpoint.
+    let sent = max_bytes.map_or(first.bytes.len(), |m| m.min(first.bytes.len()));
+    let budgets = AUTO_CUTS.map(|k| sent >> k);
+    // No cut reaches past the longest budget's stream bytes.
+    let longest = budgets.iter().copied().max().unwrap_or(0);
+    let score = |(_, c): &(u32, Compressed)| cut_error(c, &normals, &budgets);
+    let mut later: Vec<Option<Compressed>> = Vec::new();
+    let encode = |kind: u32| -> Result<(u32, Compressed)> {
+        if kind == 2 {
+            return Ok((2, second.take().expect("kind 2 is asked for once")));
+        }
+        if later.is_empty() {
+            later = (3..=last)
+                .into_par_iter()
+                .map(|k| compress_with(k as u8, Some(longest)).map(Some))
+                .collect::<Result<_>>()?;
+        }
+        let prefix = later[kind as usize - 3].take();
+        Ok((kind, prefix.expect("each later kind is asked for once")))
+    };
+    match auto_search((1, first), last, encode, score)? {
+        (kind @ 3.., _) => compress_with(kind as u8, None),
+        (_, whole) => Ok(whole),
     }
 }
 

@@ -80,7 +80,8 @@ pub fn bit_budget(
     let mut budgets = Vec::new();
     let plan = plan(tree, coefs, base, weighting, contexts, max_passes);
     code_passes(tree, coefs, base, plan, &mut tally, |t| {
-        budgets.push(t.budget.clone())
+        budgets.push(t.budget.clone());
+        true
     });
     budgets
 }

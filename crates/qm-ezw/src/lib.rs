@@ -31,6 +31,6 @@ pub use budget::{BitBudget, Cost, bit_budget};
 pub use contexts::LEVEL_CLASSES;
 pub use output::{Decoded, Encoded, Nonzero, Progress};
 pub use params::{BaseBits, Coef, Contexts, MAX_BASE_BITS, StreamParams, Weighting};
-pub use passes::{Checkpoint, decode, decode_resuming, encode};
+pub use passes::{Checkpoint, decode, decode_resuming, encode, encode_prefix};
 pub use qm_tree::{self, ZeroTree};
 pub use range::{BitReader, BitWriter, Context, ReaderSnapshot, Truncated};

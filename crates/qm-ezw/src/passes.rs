@@ -27,11 +27,38 @@ pub fn encode(
     contexts: Contexts,
     max_passes: Option<u32>,
 ) -> Encoded {
+    encode_prefix(
+        tree,
+        coefs,
+        base,
+        weighting,
+        contexts,
+        max_passes,
+        usize::MAX,
+    )
+}
+
+/// [`encode`], but only as far as the first `bytes` bytes of its stream:
+/// passes are coded until that many bytes are final (or `max_passes` are
+/// coded), and the first `bytes` bytes are those [`encode`] gives with the
+/// same arguments (what follows them is a flush, not the stream's). The
+/// parameters are [`encode`]'s, the pass ends those of the passes coded.
+/// Cheaper than a whole stream where only a prefix is measured.
+pub fn encode_prefix(
+    tree: &ZeroTree,
+    coefs: &[Coef],
+    base: Option<BaseBits<'_>>,
+    weighting: Weighting,
+    contexts: Contexts,
+    max_passes: Option<u32>,
+    bytes: usize,
+) -> Encoded {
     let mut writer = BitWriter::new();
     let mut pass_ends = Vec::new();
     let plan = plan(tree, coefs, base, weighting, contexts, max_passes);
     let params = code_passes(tree, coefs, base, plan, &mut writer, |w| {
-        pass_ends.push(w.len_needed())
+        pass_ends.push(w.len_needed());
+        w.len_final() < bytes
     });
     let bytes = writer.finish();
     for end in &mut pass_ends {
@@ -45,14 +72,15 @@ pub fn encode(
 }
 
 /// Codes the passes of a planned stream through `coder`, calling
-/// `after_pass` after each; the stream parameters.
+/// `after_pass` after each and going on while it says so; the stream
+/// parameters.
 pub(crate) fn code_passes<C: Coder>(
     tree: &ZeroTree,
     coefs: &[Coef],
     base: Option<BaseBits<'_>>,
     (params, below): (StreamParams, Vec<i32>),
     coder: &mut C,
-    mut after_pass: impl FnMut(&C),
+    mut after_pass: impl FnMut(&C) -> bool,
 ) -> StreamParams {
     // Rounded base values carry their low bits plus half the step.
     let half = (params.base_bits > 0).then(|| 1i32 << (params.base_bits - 1));
@@ -75,7 +103,9 @@ pub(crate) fn code_passes<C: Coder>(
     for pass in 0..params.passes {
         let coded = state.pass(&mut Trees::Whole(tree), pass, coder, &mut oracle);
         debug_assert!(coded.is_ok());
-        after_pass(coder);
+        if !after_pass(coder) {
+            break;
+        }
     }
     params
 }

@@ -135,6 +135,12 @@ impl BitWriter {
         self.out.len() + self.pending as usize + 5
     }
 
+    /// Bytes of the stream that are final: no later symbol or carry
+    /// changes them.
+    pub fn len_final(&self) -> usize {
+        self.out.len()
+    }
+
     /// Flushes and returns the stream.
     pub fn finish(mut self) -> Vec<u8> {
         for _ in 0..5 {

@@ -6,7 +6,7 @@ use qm_tree::ZeroTree;
 use crate::budget::bit_budget;
 use crate::output::{Decoded, Encoded};
 use crate::params::{BaseBits, Coef, Contexts, MAX_BASE_BITS, Weighting};
-use crate::passes::{Checkpoint, decode, decode_resuming, encode};
+use crate::passes::{Checkpoint, decode, decode_resuming, encode, encode_prefix};
 
 fn layout(level: u32) -> Layout {
     Layout::new(qm_lift::synthetic::cube(), level).unwrap()
@@ -440,6 +440,53 @@ fn fewer_passes_are_a_prefix_of_more() {
     assert_eq!(a.coefs(), b.coefs());
     assert_eq!(a.passes, 4);
     assert!(full.pass_ends.windows(2).all(|w| w[0] <= w[1]));
+}
+
+/// A stream coded only as far as a prefix has that prefix byte for byte,
+/// with base bits too, costs fewer passes the shorter the prefix, and
+/// decodes there as the whole stream does.
+#[test]
+fn a_prefix_coded_alone_is_the_whole_streams_prefix() {
+    let coded = ZeroTree::new(&layout(4));
+    let mut tree = coded.clone();
+    let c = coefs(&tree, 23);
+    let b = base(&tree, 5);
+    let bits = Some(BaseBits {
+        values: &b,
+        most: 9,
+        whole: false,
+        rounded: true,
+    });
+    let prefix = |bytes| {
+        let (w, n) = (Weighting::default(), Contexts::Neighbours);
+        encode_prefix(&coded, &c, bits, w, n, None, bytes)
+    };
+    let full = prefix(usize::MAX);
+    let mut passes = Vec::new();
+    for bytes in [
+        0,
+        1,
+        7,
+        full.bytes.len() / 9,
+        full.bytes.len() / 2,
+        full.bytes.len(),
+    ] {
+        let part = prefix(bytes);
+        assert!(part.bytes.len() >= bytes);
+        assert_eq!(
+            part.bytes[..bytes],
+            full.bytes[..bytes],
+            "prefix of {bytes} bytes"
+        );
+        assert_eq!(part.params.planes, full.params.planes);
+        let a = decode(&mut tree, part.params, &part.bytes[..bytes], None);
+        let w = decode(&mut tree, full.params, &full.bytes[..bytes], None);
+        assert_eq!((a.coefs(), a.base_low), (w.coefs(), w.base_low));
+        passes.push(part.pass_ends.len());
+    }
+    assert!(passes.windows(2).all(|w| w[0] <= w[1]), "{passes:?}");
+    assert!(passes[3] < passes[5], "{passes:?}");
+    assert_eq!(passes[5], full.pass_ends.len());
 }
 
 /// A decoder that starts from the roots alone ([`ZeroTree::partial`]) and
