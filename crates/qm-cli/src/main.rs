@@ -508,7 +508,10 @@ fn compress(
     let progress = Progress::new(quiet);
     progress.step("reading mesh");
     // Images are decoded only when their colours are to be carried.
-    let reading = qm::AssetOptions::DEFAULT.with_images(what.colour);
+    let most = qm::AssetOptions::DEFAULT.max_image_bytes;
+    let reading = qm::AssetOptions::DEFAULT
+        .with_images(what.colour)
+        .with_max_image_bytes(most.min(remesh_options.max_memory));
     let mut asset = qm::read_asset(input, &reading).map_err(|e| Failure::about(input, e))?;
     if !what.colour {
         // Not carried: listed as the geometry-only stream's losses.
@@ -520,7 +523,6 @@ fn compress(
     }
     let coloured = qm::param::ColourSurface::has_appearance(&asset);
     let dropped = qm::not_carried(&asset);
-    let mesh = &asset.mesh;
     progress.suspend(|| {
         if !quiet {
             for d in &dropped {
@@ -536,7 +538,7 @@ fn compress(
     });
     progress.step("making the mesh semi-regular (subdivision connectivity or remeshing)");
     let remeshing = |step: qm::param::Step| progress.step(format!("remeshing: {step}"));
-    let prepared = qm::prepare_reporting(mesh, remesh_options, &remeshing)
+    let prepared = qm::prepare_asset_reporting(&asset, remesh_options, &remeshing)
         .map_err(|e| Failure::about(input, e))?;
     progress.suspend(|| {
         if let (false, Some(r)) = (quiet, &prepared.remeshed) {

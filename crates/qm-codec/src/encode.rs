@@ -231,8 +231,11 @@ fn compress_all(
             });
         }
     }
+    // The geometry's errors the holds measured, for the colour's curve.
+    let mut measured = holds::Measured::default();
     if let (true, Some(probes)) = (options.holds, probes) {
-        let mut holds = holds::find(&compressed, probes);
+        let mut holds;
+        (holds, measured) = holds::find(&compressed, probes);
         if let Some(max) = geometry_budget {
             // A budget that ends inside a hold would carry bytes no decoder
             // reads: the stream ends at the hold's start instead. Holds
@@ -250,7 +253,14 @@ fn compress_all(
         compressed = with_holds(compressed, holds)?;
     }
     if let (Some(colours), Some(probes)) = (colours, probes) {
-        compressed = with_colour(compressed, mesh.layout(), colours, options.update, probes)?;
+        compressed = with_colour(
+            compressed,
+            mesh.layout(),
+            colours,
+            options.update,
+            probes,
+            &measured,
+        )?;
     }
     if let Some(max) = options.max_bytes {
         let prefix = compressed.header_bytes + compressed.base_bytes;
@@ -360,13 +370,15 @@ fn compress_with(
 }
 
 /// `compressed` (geometry alone) with the colour stream of `colours`
-/// interleaved, the geometry measured with `probes`.
+/// interleaved, the geometry measured with `probes` where `measured` (the
+/// holds' measure, before the holds) does not tell.
 fn with_colour(
     compressed: Compressed,
     layout: &Layout,
     colours: &[[u8; 3]],
     update: UpdateRule,
     probes: &Probes,
+    measured: &holds::Measured,
 ) -> Result<Compressed> {
     let code = colour::encode(layout, update, colours)?;
     let start = compressed.header_bytes + compressed.base_bytes;
@@ -378,12 +390,23 @@ fn with_colour(
     cuts.push(0);
     cuts.sort_unstable();
     cuts.dedup();
-    let errors = holds::errors(&compressed, probes, &cuts);
-    let geometry_curve: Vec<(usize, f64)> = cuts.into_iter().zip(errors).collect();
+    // What the holds measured is known; the rest is measured now, as a
+    // decoder sees it (holds and all).
+    let c = container::read(&compressed.bytes, &Limits::NONE)?;
+    let known: Vec<Option<f64>> = (cuts.iter())
+        .map(|&cut| measured.with_holds(&c.header.holds, cut))
+        .collect();
+    let unknown: Vec<usize> = (cuts.iter().zip(&known))
+        .filter(|(_, k)| k.is_none())
+        .map(|(&cut, _)| cut)
+        .collect();
+    let mut fresh = holds::errors(&compressed, probes, &unknown).into_iter();
+    let geometry_curve: Vec<(usize, f64)> = (cuts.into_iter().zip(known))
+        .map(|(cut, k)| (cut, k.unwrap_or_else(|| fresh.next().expect("one a cut"))))
+        .collect();
     let colour_curve = code.curve;
     let runs = colour::interleave(&geometry_curve, &colour_curve);
     let stream = colour::join(&runs, geometry, &code.bytes);
-    let c = container::read(&compressed.bytes, &Limits::NONE)?;
     let header = Header {
         flags: c.header.flags | container::COLOUR,
         colour: Some(container::ColourHeader {

@@ -28,6 +28,7 @@ use qm_lift::{Coord, Quantizer, SemiRegularMesh};
 use rayon::prelude::*;
 
 use crate::compressed::{Compressed, measure_cuts};
+use crate::container;
 
 /// Where a triangle carries its probe points: the degree-2 rule of three
 /// interior points, exact for the mean square of an offset that is linear
@@ -171,15 +172,37 @@ pub(crate) fn cuts(len: usize, samples: usize, pass_ends: &[usize]) -> Vec<usize
 }
 
 /// The holds of `compressed` (a complete container without holds): its
-/// stream decoded at [`cuts`], measured with `probes`.
-pub(crate) fn find(compressed: &Compressed, probes: &Probes) -> Vec<[u32; 2]> {
+/// stream decoded at [`cuts`], measured with `probes`; and those cuts with
+/// their errors, without holds ([`Measured`]).
+pub(crate) fn find(compressed: &Compressed, probes: &Probes) -> (Vec<[u32; 2]>, Measured) {
     let start = compressed.header_bytes + compressed.base_bytes;
     let ends: Vec<usize> = compressed.pass_ends.iter().map(|e| e - start).collect();
     let samples = compressed.quantized.len();
     let len = compressed.bytes.len() - start;
     let cuts = cuts(len, samples, &ends);
     let rise = if len >= LONG_STREAM { RISE_LONG } else { RISE };
-    select(&cuts, &errors(compressed, probes, &cuts), rise)
+    let errors = errors(compressed, probes, &cuts);
+    let holds = select(&cuts, &errors, rise);
+    (holds, Measured { cuts, errors })
+}
+
+/// Stream cuts (ascending) of a stream without holds, and the error
+/// [`Probes`] measured at each.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Measured {
+    cuts: Vec<usize>,
+    errors: Vec<f64>,
+}
+
+impl Measured {
+    /// The error at stream cut `cut` once `holds` are written: that of the
+    /// cut a decoder stays at ([`container::hold_cut`]), if it was
+    /// measured.
+    pub(crate) fn with_holds(&self, holds: &[[u32; 2]], cut: usize) -> Option<f64> {
+        let at = container::hold_cut(holds, cut);
+        let i = self.cuts.binary_search(&at).ok()?;
+        Some(self.errors[i])
+    }
 }
 
 /// The error of `compressed` at each of the stream cuts `cuts` (ascending),

@@ -186,7 +186,7 @@ pub fn encode(mesh: &PolyMesh, options: &Options) -> Result<Encoded> {
 /// with the geometry (`docs/appearance.md`). Without appearance the bytes
 /// are [`encode`]'s. What the stream does not carry: [`not_carried`].
 pub fn encode_asset(asset: &Asset, options: &Options) -> Result<Encoded> {
-    let prepared = prepare(&asset.mesh, &options.remesh)?;
+    let prepared = prepare_asset_reporting(asset, &options.remesh, &|_| {})?;
     encode_prepared_asset(&prepared, asset, &options.encode)
 }
 
@@ -337,6 +337,46 @@ pub fn prepare_reporting(
     choice::by_rate(mesh, remeshed, options, report)
 }
 
+/// Bytes that `asset`'s appearance holds while its mesh is remeshed and
+/// encoded beyond what the memory model charges the mesh: its decoded
+/// texture images. Vertex colours, and the colours sampled and coded per
+/// sample, stay below the remesh's own peak (docs/appearance.md, "Memory").
+pub fn appearance_bytes(asset: &Asset) -> u64 {
+    (asset.materials.iter())
+        .filter_map(|m| m.base_color_texture.as_ref()?.image.as_ref())
+        .map(|i| i.rgba.len() as u64)
+        .sum()
+}
+
+/// [`prepare_reporting`] of `asset`'s mesh, with what its appearance holds
+/// ([`appearance_bytes`]) counted against [`RemeshOptions::max_memory`]:
+/// the work is refused where the two together go over it.
+pub fn prepare_asset_reporting(
+    asset: &Asset,
+    options: &RemeshOptions,
+    report: param::Reporter<'_>,
+) -> Result<Prepared> {
+    let held = appearance_bytes(asset);
+    if held == 0 {
+        return prepare_reporting(&asset.mesh, options, report);
+    }
+    let left = options.with_max_memory(options.max_memory.saturating_sub(held));
+    prepare_reporting(&asset.mesh, &left, report).map_err(|e| match e {
+        Error::Param(qm_param::Error::Memory {
+            needed,
+            triangles,
+            samples,
+            ..
+        }) => Error::Param(qm_param::Error::Memory {
+            needed: needed.saturating_add(held),
+            limit: options.max_memory,
+            triangles,
+            samples,
+        }),
+        e => e,
+    })
+}
+
 /// The second half of [`encode`]: compresses `prepared`, made from `input`
 /// by [`prepare`]; the holds are measured against `input`'s surface, the way
 /// `qm distance` measures.
@@ -434,6 +474,49 @@ mod tests {
         for e in [missing, cut, nothing] {
             chain_has_no_repeats(&e);
         }
+    }
+
+    /// The decoded texture images count against the memory limit: a limit
+    /// that admits the mesh alone refuses it with its image, naming the
+    /// whole estimate and the limit given.
+    #[test]
+    fn texture_images_count_against_the_memory_limit() {
+        let sphere = lift::synthetic::bumpy_sphere(3);
+        let layout = sphere.layout();
+        let mut asset = Asset::default();
+        asset.mesh =
+            PolyMesh::from_faces(sphere.positions().to_vec(), &layout.quads(layout.level()));
+        let needed = |asset: &Asset, limit: u64| {
+            let options = RemeshOptions::default().with_max_memory(limit);
+            match prepare_asset_reporting(asset, &options, &|_| {}) {
+                Err(Error::Param(param::Error::Memory {
+                    needed, limit: l, ..
+                })) => {
+                    assert_eq!(l, limit);
+                    Some(needed)
+                }
+                Err(e) => panic!("{e}"),
+                Ok(_) => None,
+            }
+        };
+        let alone = needed(&asset, 1).expect("a limit of a byte refuses");
+        assert_eq!(needed(&asset, alone), None);
+        let side = 1024;
+        asset.materials.push(io::Material {
+            name: "t".into(),
+            base_color: [1.0; 4],
+            base_color_texture: Some(io::Texture {
+                source: io::ImageSource::File("t.png".into()),
+                image: Some(io::Image {
+                    width: side,
+                    height: side,
+                    rgba: vec![0; 4 * (side * side) as usize],
+                }),
+            }),
+        });
+        assert_eq!(appearance_bytes(&asset), 4 << 20);
+        assert_eq!(needed(&asset, alone), Some(alone + (4 << 20)));
+        assert_eq!(needed(&asset, alone + (4 << 20)), None);
     }
 
     fn glam(x: f64) -> qm_io::glam::DVec3 {
