@@ -735,6 +735,7 @@ fn compress_names_every_attribute_it_cannot_carry() {
     }
     assert!(lines[1].contains("stone.png: No such file"), "{}", lines[1]);
 
+    let began = std::time::Instant::now();
     let out = qm(
         &[
             "compress",
@@ -748,8 +749,16 @@ fn compress_names_every_attribute_it_cannot_carry() {
         ],
         d,
     );
+    let wall = began.elapsed().as_secs_f64();
     assert!(stderr(&out).is_empty(), "--quiet: {}", stderr(&out));
     let (kinds, v) = dropped_kinds(&out);
+    // Each step's time, none negative, together within the run's.
+    let steps = ["reading", "semi_regular", "coding", "writing"];
+    let seconds: Vec<f64> = (steps.iter())
+        .map(|k| v["seconds"][k].as_f64().unwrap_or(-1.0))
+        .collect();
+    assert!(seconds.iter().all(|&t| t >= 0.0), "{v}");
+    assert!(seconds.iter().sum::<f64>() <= wall, "{v}");
     assert_eq!(
         kinds,
         [

@@ -158,8 +158,8 @@ enum Command {
         #[arg(long)]
         geometry_only: bool,
         /// Print a JSON summary on stdout: sizes, the base domain taken and
-        /// why (`base_domain`, `base_domain_why`), and the list of what was
-        /// not carried (`dropped`).
+        /// why (`base_domain`, `base_domain_why`), the list of what was
+        /// not carried (`dropped`), and each step's wall time (`seconds`).
         #[arg(long)]
         json: bool,
         /// No progress, summary or warning output (--json still lists what
@@ -477,6 +477,29 @@ struct CompressSummary {
     colour: bool,
     /// What the stream does not carry, one entry a kind.
     dropped: Vec<DroppedEntry>,
+    /// Wall time of each step, in seconds.
+    seconds: StepSeconds,
+}
+
+/// Wall time of the steps of `qm compress`, in seconds.
+#[derive(serde::Serialize, Clone, Copy, Default)]
+struct StepSeconds {
+    /// Reading the input file.
+    reading: f64,
+    /// Making the mesh semi-regular: detection or the remesh, with the
+    /// choice between base domains.
+    semi_regular: f64,
+    /// Lifting and coding (with the frames' choice, the holds and the
+    /// colours).
+    coding: f64,
+    /// Writing the output file.
+    writing: f64,
+}
+
+impl StepSeconds {
+    fn total(&self) -> f64 {
+        self.reading + self.semi_regular + self.coding + self.writing
+    }
 }
 
 /// What `qm compress` is asked to do.
@@ -507,6 +530,13 @@ fn compress(
     check_output(input, &output)?;
     let progress = Progress::new(quiet);
     progress.step("reading mesh");
+    let mut seconds = StepSeconds::default();
+    let mut clock = std::time::Instant::now();
+    let mut lap = || {
+        std::mem::replace(&mut clock, std::time::Instant::now())
+            .elapsed()
+            .as_secs_f64()
+    };
     // Images are decoded only when their colours are to be carried.
     let most = qm::AssetOptions::DEFAULT.max_image_bytes;
     let reading = qm::AssetOptions::DEFAULT
@@ -536,15 +566,18 @@ fn compress(
             }
         }
     });
+    seconds.reading = lap();
     progress.step("making the mesh semi-regular (subdivision connectivity or remeshing)");
     let remeshing = |step: qm::param::Step| progress.step(format!("remeshing: {step}"));
     let prepared = qm::prepare_asset_reporting(&asset, remesh_options, &remeshing)
         .map_err(|e| Failure::about(input, e))?;
+    seconds.semi_regular = lap();
     progress.suspend(|| {
         if let (false, Some(r)) = (quiet, &prepared.remeshed) {
             report_remesh(input, r);
         }
     });
+    lap();
     progress.step(if coloured {
         "lifting and coding, with the colours"
     } else {
@@ -552,14 +585,16 @@ fn compress(
     });
     let compressed = qm::encode_prepared_asset(&prepared, &asset, options)
         .map_err(|e| Failure::about(input, e))?;
+    seconds.coding = lap();
     progress.step("writing");
     write_atomic(&output, &compressed.bytes)?;
+    seconds.writing = lap();
     progress.finish();
     let total = compressed.bytes.len();
     let stream = total - compressed.header_bytes - compressed.base_bytes;
     if !quiet {
         note!(
-            "{}: {} vertices{}, {} base quads x level {} -> {}: {} bytes (header {}, base {}, stream {}), {} passes",
+            "{}: {} vertices{}, {} base quads x level {} -> {}: {} bytes (header {}, base {}, stream {}), {} passes, in {:.1} s (reading {:.1}, semi-regular {:.1}, coding {:.1}, writing {:.1})",
             input.display(),
             compressed.samples,
             if coloured { " with colours" } else { "" },
@@ -571,6 +606,11 @@ fn compress(
             compressed.base_bytes,
             stream,
             compressed.pass_ends.len(),
+            seconds.total(),
+            seconds.reading,
+            seconds.semi_regular,
+            seconds.coding,
+            seconds.writing,
         );
     }
     if json {
@@ -600,6 +640,7 @@ fn compress(
                     detail: d.detail,
                 })
                 .collect(),
+            seconds,
         };
         out!(
             "{}",
