@@ -538,10 +538,7 @@ fn compress(
             .as_secs_f64()
     };
     // Images are decoded only when their colours are to be carried.
-    let most = qm::AssetOptions::DEFAULT.max_image_bytes;
-    let reading = qm::AssetOptions::DEFAULT
-        .with_images(what.colour)
-        .with_max_image_bytes(most.min(remesh_options.max_memory));
+    let reading = qm::AssetOptions::DEFAULT.with_images(what.colour);
     let mut asset = qm::read_asset(input, &reading).map_err(|e| Failure::about(input, e))?;
     if !what.colour {
         // Not carried: listed as the geometry-only stream's losses.

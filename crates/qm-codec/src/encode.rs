@@ -234,8 +234,8 @@ fn compress_all(
     // The geometry's errors the holds measured, for the colour's curve.
     let mut measured = holds::Measured::default();
     if let (true, Some(probes)) = (options.holds, probes) {
-        let mut holds;
-        (holds, measured) = holds::find(&compressed, probes);
+        let (mut holds, errors) = holds::find(&compressed, probes);
+        measured = errors;
         if let Some(max) = geometry_budget {
             // A budget that ends inside a hold would carry bytes no decoder
             // reads: the stream ends at the hold's start instead. Holds
@@ -394,7 +394,7 @@ fn with_colour(
     // decoder sees it (holds and all).
     let c = container::read(&compressed.bytes, &Limits::NONE)?;
     let known: Vec<Option<f64>> = (cuts.iter())
-        .map(|&cut| measured.with_holds(&c.header.holds, cut))
+        .map(|&cut| measured.error_at(&c.header.holds, cut))
         .collect();
     let unknown: Vec<usize> = (cuts.iter().zip(&known))
         .filter(|(_, k)| k.is_none())

@@ -13,7 +13,6 @@
 
 use qm_lift::glam::DVec3;
 use qm_lift::{Coord, Layout};
-use rayon::prelude::*;
 
 use crate::Result;
 use crate::compressed::{Compressed, measure_cuts};
@@ -110,11 +109,11 @@ pub(crate) fn auto_search<T>(
 /// encoder's byte budget, which the cuts compared are a share of.
 ///
 /// Parents from level 3 and from level 4 are coded whole, at once (both
-/// are always compared, and either may be kept); later starts, which are
-/// all tried once level 4 wins, are coded at once too, each only as far as
-/// the longest cut compared, and the one kept is coded whole again: the
-/// choice and the stream are those of whole encodings one after the other,
-/// at a fraction of their time.
+/// are always compared, and either may be kept); later starts, tried once
+/// level 4 wins, are coded one after another, each only as far as the
+/// longest cut compared, and the one kept is coded whole again: the choice
+/// and the stream are those of whole encodings one after the other, at a
+/// fraction of their time, with at most two encoders at work.
 pub(crate) fn auto(
     layout: &Layout,
     quantized: &[Coord],
@@ -137,22 +136,17 @@ pub(crate) fn auto(
     // decode resumes from the previous one's checkpoint.
     let sent = max_bytes.map_or(first.bytes.len(), |m| m.min(first.bytes.len()));
     let budgets = AUTO_CUTS.map(|k| sent >> k);
-    // No cut reaches past the longest budget's stream bytes.
+    // No cut reaches past the longest budget (file bytes, so more than
+    // the stream bytes any cut takes).
     let longest = budgets.iter().copied().max().unwrap_or(0);
     let score = |(_, c): &(u32, Compressed)| cut_error(c, &normals, &budgets);
-    let mut later: Vec<Option<Compressed>> = Vec::new();
+    // Later kinds, one at a time (each holds an encoder's memory), each
+    // coded only as far as the longest cut.
     let encode = |kind: u32| -> Result<(u32, Compressed)> {
-        if kind == 2 {
-            return Ok((2, second.take().expect("kind 2 is asked for once")));
+        match kind {
+            2 => Ok((2, second.take().expect("kind 2 is asked for once"))),
+            _ => Ok((kind, compress_with(kind as u8, Some(longest))?)),
         }
-        if later.is_empty() {
-            later = (3..=last)
-                .into_par_iter()
-                .map(|k| compress_with(k as u8, Some(longest)).map(Some))
-                .collect::<Result<_>>()?;
-        }
-        let prefix = later[kind as usize - 3].take();
-        Ok((kind, prefix.expect("each later kind is asked for once")))
     };
     match auto_search((1, first), last, encode, score)? {
         (kind @ 3.., _) => compress_with(kind as u8, None),

@@ -198,7 +198,7 @@ impl Measured {
     /// The error at stream cut `cut` once `holds` are written: that of the
     /// cut a decoder stays at ([`container::hold_cut`]), if it was
     /// measured.
-    pub(crate) fn with_holds(&self, holds: &[[u32; 2]], cut: usize) -> Option<f64> {
+    pub(crate) fn error_at(&self, holds: &[[u32; 2]], cut: usize) -> Option<f64> {
         let at = container::hold_cut(holds, cut);
         let i = self.cuts.binary_search(&at).ok()?;
         Some(self.errors[i])

@@ -317,7 +317,8 @@ pub fn prepare_reporting(
         match qm_param::detect_subdivision(mesh) {
             Ok(d) => {
                 let samples = d.mesh.positions().len() as u64;
-                qm_param::remesh::check_memory(0, 1, samples, false, options.max_memory)?;
+                let limit = (options.max_memory, options.held);
+                qm_param::remesh::check_memory(0, 1, samples, false, limit)?;
                 return Ok(Prepared {
                     mesh: d.mesh,
                     source: Some(d.source),
@@ -349,32 +350,16 @@ pub fn appearance_bytes(asset: &Asset) -> u64 {
 }
 
 /// [`prepare_reporting`] of `asset`'s mesh, with what its appearance holds
-/// ([`appearance_bytes`]) counted against [`RemeshOptions::max_memory`]:
-/// the work is refused where the two together go over it.
+/// ([`appearance_bytes`]) counted against [`RemeshOptions::max_memory`]
+/// beside the work ([`RemeshOptions::held`]): the work is refused where
+/// the two together go over it.
 pub fn prepare_asset_reporting(
     asset: &Asset,
     options: &RemeshOptions,
     report: param::Reporter<'_>,
 ) -> Result<Prepared> {
-    let held = appearance_bytes(asset);
-    if held == 0 {
-        return prepare_reporting(&asset.mesh, options, report);
-    }
-    let left = options.with_max_memory(options.max_memory.saturating_sub(held));
-    prepare_reporting(&asset.mesh, &left, report).map_err(|e| match e {
-        Error::Param(qm_param::Error::Memory {
-            needed,
-            triangles,
-            samples,
-            ..
-        }) => Error::Param(qm_param::Error::Memory {
-            needed: needed.saturating_add(held),
-            limit: options.max_memory,
-            triangles,
-            samples,
-        }),
-        e => e,
-    })
+    let held = options.held.saturating_add(appearance_bytes(asset));
+    prepare_reporting(&asset.mesh, &options.with_held(held), report)
 }
 
 /// The second half of [`encode`]: compresses `prepared`, made from `input`

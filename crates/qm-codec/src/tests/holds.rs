@@ -5,7 +5,7 @@ use crate::compressed::Compressed;
 use crate::container::{self, Limits};
 use crate::decode::Decoder;
 use crate::encode::{EncodeOptions, compress};
-use crate::holds::{Probes, RISE, cuts, errors};
+use crate::holds::{Probes, RISE, cuts, errors, find};
 
 /// Largest rise of each error over the smallest before it, as a factor.
 fn worst_rise(errors: &[f64]) -> f64 {
@@ -41,6 +41,20 @@ fn with_holds_no_cut_is_worse_than_a_shorter_one() {
     assert!(after <= RISE, "held cuts still rise by {after}");
     let header = container::read(&held.bytes, &Limits::NONE).unwrap().header;
     assert!(!header.holds.is_empty());
+    // What the holds measured, mapped through them, is what a decoder of
+    // the held stream measures at every cut (the colour's curve takes
+    // it); a cut not measured is not known.
+    let (holds, known) = find(&plain, &probes);
+    assert_eq!(holds, header.holds);
+    let fresh = errors(&held, &probes, &measured);
+    for (&cut, &error) in measured.iter().zip(&fresh) {
+        assert_eq!(known.error_at(&holds, cut), Some(error), "cut {cut}");
+    }
+    let between = (measured.windows(2))
+        .find(|w| w[1] > w[0] + 1 && container::hold_cut(&holds, w[0] + 1) == w[0] + 1)
+        .map(|w| w[0] + 1)
+        .expect("a cut not measured, outside the holds");
+    assert_eq!(known.error_at(&holds, between), None);
     let mut decoder = Decoder::new(&held.bytes, &Limits::NONE).unwrap();
     let (mut inside, mut start) = (Vec::new(), Vec::new());
     let s = stream(&held);

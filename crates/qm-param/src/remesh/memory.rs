@@ -90,20 +90,28 @@ pub fn encode_memory(triangles: u64, parts: u64, samples: u64, measured: bool) -
         .saturating_add(samples.saturating_mul(per_sample))
 }
 
-/// Refuses work whose [`encode_memory`] is above `limit`.
+/// Refuses work whose [`encode_memory`] and the bytes the caller `held`
+/// beside it ([`RemeshOptions::held`]) are above `limit`.
 pub fn check_memory(
     triangles: u64,
     parts: u64,
     samples: u64,
     measured: bool,
-    limit: u64,
+    (limit, held): (u64, u64),
 ) -> Result<()> {
     let needed = encode_memory(triangles, parts, samples, measured);
-    refuse_above(needed, limit, triangles, samples)
+    refuse_above(needed, (limit, held), triangles, samples)
 }
 
-/// Refuses work that `needs` more than `limit` bytes.
-pub(super) fn refuse_above(needed: u64, limit: u64, triangles: u64, samples: u64) -> Result<()> {
+/// Refuses work that `needs` with what the caller `held` more than
+/// `limit` bytes; the error names both together.
+pub(super) fn refuse_above(
+    needed: u64,
+    (limit, held): (u64, u64),
+    triangles: u64,
+    samples: u64,
+) -> Result<()> {
+    let needed = needed.saturating_add(held);
     if needed > limit {
         return Err(Error::Memory {
             needed,

@@ -39,6 +39,10 @@ pub struct RemeshOptions {
     /// checked on the input before any work and on the level's samples
     /// before they are made.
     pub max_memory: u64,
+    /// Bytes the caller holds beside the work until it is encoded (an
+    /// asset's decoded images), counted against
+    /// [`max_memory`](Self::max_memory) with the estimate.
+    pub held: u64,
     /// Remesh even where a chart's map onto its base domain folds (the remesh
     /// then overlaps itself there); by default that is an error
     /// ([`RemeshFailure::Folds`](crate::RemeshFailure::Folds)), before any
@@ -88,6 +92,7 @@ impl RemeshOptions {
         fit_rounds: 3,
         normal: true,
         max_memory: DEFAULT_MAX_MEMORY,
+        held: 0,
         accept_folds: false,
         domain: BaseDomain::Auto,
         min_psnr: DEFAULT_MIN_PSNR,
@@ -127,6 +132,18 @@ impl RemeshOptions {
     pub const fn with_max_memory(mut self, bytes: u64) -> Self {
         self.max_memory = bytes;
         self
+    }
+
+    /// Sets the bytes held beside the work ([`Self::held`]).
+    pub const fn with_held(mut self, bytes: u64) -> Self {
+        self.held = bytes;
+        self
+    }
+
+    /// The memory limit and the bytes held beside the work, as the checks
+    /// take them.
+    pub(crate) const fn memory(&self) -> (u64, u64) {
+        (self.max_memory, self.held)
     }
 
     /// Sets whether folded maps are remeshed anyway.

@@ -67,7 +67,7 @@ pub(super) fn remesh_square(
     };
     refuse_above(
         needed(target as u64),
-        options.max_memory,
+        options.memory(),
         input_triangles,
         target as u64,
     )?;
@@ -116,7 +116,7 @@ pub(super) fn remesh_square(
         parts,
         samples as u64,
         measured,
-        options.max_memory,
+        options.memory(),
     )?;
     // A chart whose map folds would give a remesh that overlaps itself.
     for (c, (chart, component)) in charts.iter().zip(&cleaned.components).enumerate() {

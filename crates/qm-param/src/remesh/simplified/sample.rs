@@ -79,7 +79,7 @@ pub(super) fn sample_charts(
             parts,
             samples as u64,
             true,
-            options.max_memory,
+            options.memory(),
         )
     };
     check_memory(&bases)?;
