@@ -574,6 +574,7 @@ fn compress(
             report_remesh(input, r);
         }
     });
+    // Printing the remesh report is no step's.
     lap();
     progress.step(if coloured {
         "lifting and coding, with the colours"

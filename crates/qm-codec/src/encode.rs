@@ -393,16 +393,20 @@ fn with_colour(
     // What the holds measured is known; the rest is measured now, as a
     // decoder sees it (holds and all).
     let c = container::read(&compressed.bytes, &Limits::NONE)?;
-    let known: Vec<Option<f64>> = (cuts.iter())
-        .map(|&cut| measured.error_at(&c.header.holds, cut))
-        .collect();
-    let unknown: Vec<usize> = (cuts.iter().zip(&known))
-        .filter(|(_, k)| k.is_none())
-        .map(|(&cut, _)| cut)
+    let known = |cut: usize| measured.error_at(&c.header.holds, cut);
+    let unknown: Vec<usize> = cuts
+        .iter()
+        .copied()
+        .filter(|&cut| known(cut).is_none())
         .collect();
     let mut fresh = holds::errors(&compressed, probes, &unknown).into_iter();
-    let geometry_curve: Vec<(usize, f64)> = (cuts.into_iter().zip(known))
-        .map(|(cut, k)| (cut, k.unwrap_or_else(|| fresh.next().expect("one a cut"))))
+    let geometry_curve: Vec<(usize, f64)> = (cuts.into_iter())
+        .map(|cut| {
+            (
+                cut,
+                known(cut).unwrap_or_else(|| fresh.next().expect("one a cut")),
+            )
+        })
         .collect();
     let colour_curve = code.curve;
     let runs = colour::interleave(&geometry_curve, &colour_curve);

@@ -84,20 +84,16 @@ pub(crate) fn code_passes<C: Coder>(
 ) -> StreamParams {
     // Rounded base values carry their low bits plus half the step.
     let half = (params.base_bits > 0).then(|| 1i32 << (params.base_bits - 1));
-    let shifted: Vec<Coef> = match (base, half) {
+    let shifted: Option<Vec<Coef>> = match (base, half) {
         (Some(b), Some(half)) if b.rounded => {
-            b.values.iter().map(|v| v.map(|x| x + half)).collect()
+            Some(b.values.iter().map(|v| v.map(|x| x + half)).collect())
         }
-        _ => Vec::new(),
+        _ => None,
     };
     let mut oracle = Truth {
         coefs,
         below: &below,
-        base: match base {
-            Some(b) if b.rounded && half.is_some() => &shifted,
-            Some(b) => b.values,
-            None => &[],
-        },
+        base: shifted.as_deref().unwrap_or(base.map_or(&[], |b| b.values)),
     };
     let mut state = State::new(tree, params);
     for pass in 0..params.passes {

@@ -317,8 +317,7 @@ pub fn prepare_reporting(
         match qm_param::detect_subdivision(mesh) {
             Ok(d) => {
                 let samples = d.mesh.positions().len() as u64;
-                let limit = (options.max_memory, options.held);
-                qm_param::remesh::check_memory(0, 1, samples, false, limit)?;
+                qm_param::remesh::check_memory(0, 1, samples, false, options)?;
                 return Ok(Prepared {
                     mesh: d.mesh,
                     source: Some(d.source),

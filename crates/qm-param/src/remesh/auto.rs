@@ -102,18 +102,17 @@ fn remesh_both(
     // A level asked for makes as many samples as its base quads take, which
     // neither remesh knows before its base is made: then one at a time.
     let both = both_memory(&cleaned, input_triangles, options);
-    let (square, made) =
-        if options.level.is_none() && both.saturating_add(options.held) <= options.max_memory {
-            let copy = cleaned.clone();
-            let (s, c) = rayon::join(|| square(copy), || charts(cleaned));
-            let at_once = |mut r: Remeshed| {
-                r.report.memory = both;
-                r
-            };
-            (s.map(at_once), Ok(c.map(at_once)))
-        } else {
-            (square(cleaned.clone()), Err(cleaned))
+    let (square, made) = if options.level.is_none() && options.admits(both) {
+        let copy = cleaned.clone();
+        let (s, c) = rayon::join(|| square(copy), || charts(cleaned));
+        let at_once = |mut r: Remeshed| {
+            r.report.memory = both;
+            r
         };
+        (s.map(at_once), Ok(c.map(at_once)))
+    } else {
+        (square(cleaned.clone()), Err(cleaned))
+    };
     let charts = move || made.unwrap_or_else(charts);
     match square {
         Ok(square) => {

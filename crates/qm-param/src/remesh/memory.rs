@@ -90,32 +90,32 @@ pub fn encode_memory(triangles: u64, parts: u64, samples: u64, measured: bool) -
         .saturating_add(samples.saturating_mul(per_sample))
 }
 
-/// Refuses work whose [`encode_memory`] and the bytes the caller `held`
-/// beside it ([`RemeshOptions::held`]) are above `limit`.
+/// Refuses work whose [`encode_memory`], with the bytes held beside it
+/// ([`RemeshOptions::held`]), is above [`RemeshOptions::max_memory`].
 pub fn check_memory(
     triangles: u64,
     parts: u64,
     samples: u64,
     measured: bool,
-    (limit, held): (u64, u64),
+    options: &RemeshOptions,
 ) -> Result<()> {
     let needed = encode_memory(triangles, parts, samples, measured);
-    refuse_above(needed, (limit, held), triangles, samples)
+    refuse_above(needed, options, triangles, samples)
 }
 
-/// Refuses work that `needs` with what the caller `held` more than
-/// `limit` bytes; the error names both together.
+/// Refuses work that `needs` more than `options` admit
+/// ([`RemeshOptions::admits`]); the error names the work and what is held
+/// together.
 pub(super) fn refuse_above(
     needed: u64,
-    (limit, held): (u64, u64),
+    options: &RemeshOptions,
     triangles: u64,
     samples: u64,
 ) -> Result<()> {
-    let needed = needed.saturating_add(held);
-    if needed > limit {
+    if !options.admits(needed) {
         return Err(Error::Memory {
-            needed,
-            limit,
+            needed: needed.saturating_add(options.held),
+            limit: options.max_memory,
             triangles,
             samples,
         });

@@ -124,7 +124,7 @@ fn remesh_at_scale(
     // Refused before any work where the input alone is over the memory
     // limit; each pipeline checks again before it makes its samples.
     let input_triangles = mesh.faces().map(|f| f.len().saturating_sub(2) as u64).sum();
-    check_memory(input_triangles, 0, 0, false, options.memory())?;
+    check_memory(input_triangles, 0, 0, false, options)?;
     let remeshed = match options.domain {
         // The input's own triangles, zero-thickness sheets kept, at level 0.
         BaseDomain::Input => input::remesh_as_asked(mesh, options.level),

@@ -140,10 +140,10 @@ impl RemeshOptions {
         self
     }
 
-    /// The memory limit and the bytes held beside the work, as the checks
-    /// take them.
-    pub(crate) const fn memory(&self) -> (u64, u64) {
-        (self.max_memory, self.held)
+    /// Whether work that needs `bytes`, beside what is [`held`](Self::held),
+    /// fits [`max_memory`](Self::max_memory).
+    pub const fn admits(&self, bytes: u64) -> bool {
+        bytes.saturating_add(self.held) <= self.max_memory
     }
 
     /// Sets whether folded maps are remeshed anyway.

@@ -67,7 +67,7 @@ pub(super) fn remesh_square(
     };
     refuse_above(
         needed(target as u64),
-        options.memory(),
+        options,
         input_triangles,
         target as u64,
     )?;
@@ -111,13 +111,7 @@ pub(super) fn remesh_square(
     }
     // The level's samples, before any is made.
     let samples: f64 = charts.iter().map(|c| square_samples(c.map.k, level)).sum();
-    check_memory(
-        input_triangles,
-        parts,
-        samples as u64,
-        measured,
-        options.memory(),
-    )?;
+    check_memory(input_triangles, parts, samples as u64, measured, options)?;
     // A chart whose map folds would give a remesh that overlaps itself.
     for (c, (chart, component)) in charts.iter().zip(&cleaned.components).enumerate() {
         if chart.map.flipped > 0 && !options.accept_folds {

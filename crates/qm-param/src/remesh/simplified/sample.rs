@@ -74,13 +74,7 @@ pub(super) fn sample_charts(
         let quads: usize = bases.iter().map(|b| 3 * b.triangles.len()).sum();
         let samples = quads as f64 * ((1u64 << level) as f64 + 1.0).powi(2);
         let parts = bases.len() as u64;
-        check_memory(
-            input_triangles,
-            parts,
-            samples as u64,
-            true,
-            options.memory(),
-        )
+        check_memory(input_triangles, parts, samples as u64, true, options)
     };
     check_memory(&bases)?;
     // Charting, untangling, refolding and relaxing, part by part (`None`:
