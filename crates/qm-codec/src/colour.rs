@@ -30,7 +30,7 @@
 use qm_ezw::{BaseBits, Contexts, Weighting, ZeroTree};
 use qm_lift::{Coord, Layout, Lifting, UpdateRule};
 
-use crate::container::ColourHeader;
+use crate::container::{ColourHeader, MAX_FINER_COLOUR};
 use crate::{Error, Result};
 
 /// The reconstruction of a base value known to lie in the `2^unknown`
@@ -105,20 +105,40 @@ pub(crate) struct ColourCode {
     pub curve: Vec<(usize, f64)>,
 }
 
-/// Codes `colours`, one per sample of `layout`, lifted with `update`.
+/// The levels of colour beyond `layout`'s that `count` colours fill: the
+/// `finer` with one colour per sample of `layout`'s base at `level +
+/// finer`, up to [`MAX_FINER_COLOUR`]; an error for another count.
+pub(crate) fn finer_levels(layout: &Layout, count: usize) -> Result<u32> {
+    let base = layout.base();
+    (0..=MAX_FINER_COLOUR as u32)
+        .find(|&finer| {
+            let level = layout.level() + finer;
+            Layout::check(base, level).is_ok() && base.sample_count(level) == count as u64
+        })
+        .ok_or(Error::Setting {
+            what: "colours (one per sample of the mesh's level or a finer one)",
+            value: count as u64,
+            min: layout.sample_count() as u64,
+            max: base.sample_count(layout.level() + MAX_FINER_COLOUR as u32),
+        })
+}
+
+/// Codes `colours`, one per sample of `layout` or of a level of its base
+/// up to [`MAX_FINER_COLOUR`] finer ([`finer_levels`]), lifted with
+/// `update`.
 pub(crate) fn encode(
     layout: &Layout,
     update: UpdateRule,
     colours: &[[u8; 3]],
 ) -> Result<ColourCode> {
-    if colours.len() != layout.sample_count() {
-        return Err(Error::Setting {
-            what: "colours (one per sample)",
-            value: colours.len() as u64,
-            min: layout.sample_count() as u64,
-            max: layout.sample_count() as u64,
-        });
-    }
+    let finer = finer_levels(layout, colours.len())?;
+    let fine;
+    let layout = if finer == 0 {
+        layout
+    } else {
+        fine = Layout::new(layout.base().clone(), layout.level() + finer)?;
+        &fine
+    };
     let lifting = Lifting::new(layout, update);
     let mut data: Vec<Coord> = colours.iter().map(|&c| to_value(c)).collect();
     lifting.forward(&mut data);
@@ -165,6 +185,7 @@ pub(crate) fn encode(
         base_min,
         base_max,
         runs: Vec::new(),
+        finer: finer as u8,
     };
     // The floor: what the lossless stream keeps (rounding), and what the
     // samples miss between them, taken as what dropping the finest level

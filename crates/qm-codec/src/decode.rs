@@ -27,6 +27,7 @@ use qm_ezw::ZeroTree;
 use qm_lift::glam::DVec3;
 use qm_lift::{BaseMesh, Coord, Layout, Lifting, Quantizer, SemiRegularMesh, UpdateRule};
 
+use crate::atlas::Atlas;
 use crate::container::{self, Header, Limits};
 use crate::levels::{self, DEFAULT_TOLERANCE_DB, Estimate, LevelChoice};
 use crate::{Result, basecode};
@@ -159,6 +160,10 @@ pub struct Decompressed {
     /// mesh at [`Self::level`], in the order of [`Self::level_mesh`]'s
     /// positions.
     pub colours: Option<Vec<[u8; 3]>>,
+    /// For a file whose colours reached a finer level than the mesh's:
+    /// those colours as a texture ([`Decoder::texture`]); the texture
+    /// coordinates of the mesh's corners are [`Atlas::corner_texcoords`].
+    pub texture: Option<Atlas>,
 }
 
 impl Decompressed {
@@ -225,6 +230,7 @@ pub(crate) fn decompress_with(
         false,
     );
     let colours = decoder.colours().map(<[_]>::to_vec);
+    let texture = decoder.texture(status.level);
     let Decoder {
         header,
         layout,
@@ -248,6 +254,7 @@ pub(crate) fn decompress_with(
         layout,
         estimate,
         colours,
+        texture,
     }
 }
 
@@ -291,6 +298,10 @@ pub struct Decoder {
 #[derive(Clone, Debug)]
 struct ColourDecoder {
     header: container::ColourHeader,
+    /// The colour's own sample layout, as fine as its trees and the level
+    /// of the last decode (finer colour than geometry has samples the
+    /// geometry's layout never has).
+    layout: Layout,
     /// The trees the colour stream reached.
     tree: ZeroTree,
     checkpoint: Option<qm_ezw::Checkpoint>,
@@ -327,7 +338,7 @@ impl Decoder {
         let c = container::read(bytes, limits)?;
         let h = c.header;
         let base = BaseMesh::new(h.base_vertices, c.base.faces)?;
-        Layout::check(&base, h.level as u32)?;
+        Layout::check(&base, container::colour_level(&h))?;
         let tree = ZeroTree::partial(&base, h.level as u32, 1);
         let layout = Layout::new(base, 0)?;
         let quantizer = Quantizer {
@@ -339,7 +350,8 @@ impl Decoder {
         let colour = h.colour.clone().map(|header| {
             Box::new(ColourDecoder {
                 header,
-                tree: ZeroTree::partial(layout.base(), h.level as u32, 1),
+                layout: layout.clone(),
+                tree: ZeroTree::partial(layout.base(), container::colour_level(&h), 1),
                 checkpoint: None,
                 decoded: None,
                 used: 0,
@@ -372,6 +384,32 @@ impl Decoder {
     /// [`Decompressed::level_mesh`] (empty before the first decode).
     pub fn colours(&self) -> Option<&[[u8; 3]]> {
         self.colour.as_ref().map(|c| &c.colours[..])
+    }
+
+    /// For a file whose colours are finer than the mesh of the last decode
+    /// at `level`: those colours as a texture atlas
+    /// ([`crate::atlas::Atlas`]), at the finest colour level the colour
+    /// stream reached, at most the file's colour level. `None` without
+    /// colours, before the first decode, or where the colours reached no
+    /// finer level than `level` (the vertices' colours carry them all).
+    pub fn texture(&self, level: u32) -> Option<Atlas> {
+        let colour = self.colour.as_ref()?;
+        let decoded = colour.decoded.as_ref()?;
+        let finest = container::colour_level(&self.header);
+        let top = top_level(&colour.tree, decoded).min(finest);
+        let layout = &colour.layout;
+        if top <= level || top > layout.level() {
+            return None;
+        }
+        let mut values = Vec::new();
+        crate::colour::fill(layout, &colour.tree, decoded, &colour.header, &mut values);
+        let update = UpdateRule::from_code(self.header.update).expect("checked by the container");
+        synthesize(&Lifting::new(layout, update), &mut values, 0, top, top);
+        let s = 1usize << (layout.level() - top);
+        Some(Atlas::new(layout.face_count(), top, |f, i, j| {
+            let sample = layout.sample(f, i as usize * s, j as usize * s);
+            crate::colour::from_value(values[sample as usize])
+        }))
     }
 
     /// Splits an interleaved `stream` and decodes the colour part's
@@ -416,9 +454,14 @@ impl Decoder {
             return status;
         };
         let level = status.level;
+        let reach = level.max(colour.tree.depth());
+        if reach > colour.layout.level() {
+            let base = colour.layout.base().clone();
+            colour.layout = Layout::new(base, reach).expect("checked by Decoder::new");
+        }
         let mut values = Vec::new();
         crate::colour::fill(
-            &self.layout,
+            &colour.layout,
             &colour.tree,
             decoded,
             &colour.header,
@@ -427,13 +470,13 @@ impl Decoder {
         let top = top_level(&colour.tree, decoded);
         let update = UpdateRule::from_code(self.header.update).expect("checked by the container");
         synthesize(
-            &Lifting::new(&self.layout, update),
+            &Lifting::new(&colour.layout, update),
             &mut values,
             0,
             level,
             top,
         );
-        let (samples, _) = level_index(&self.layout, level);
+        let (samples, _) = level_index(&colour.layout, level);
         colour.colours = (samples.iter())
             .map(|&s| crate::colour::from_value(values[s as usize]))
             .collect();
@@ -649,8 +692,7 @@ impl Decoder {
     /// Makes the layout reach `level` and the tree's levels (the layout
     /// only grows).
     fn build_layout(&mut self, level: u32) {
-        let colour = self.colour.as_ref().map_or(0, |c| c.tree.depth());
-        let level = level.max(self.tree.depth()).max(colour);
+        let level = level.max(self.tree.depth());
         if level > self.layout.level() {
             let base = self.layout.base().clone();
             self.layout = Layout::new(base, level).expect("checked by Decoder::new");

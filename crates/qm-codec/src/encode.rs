@@ -411,8 +411,13 @@ fn with_colour(
     let colour_curve = code.curve;
     let runs = colour::interleave(&geometry_curve, &colour_curve);
     let stream = colour::join(&runs, geometry, &code.bytes);
+    let finer = if code.header.finer > 0 {
+        container::FINER_COLOUR
+    } else {
+        0
+    };
     let header = Header {
-        flags: c.header.flags | container::COLOUR,
+        flags: c.header.flags | container::COLOUR | finer,
         colour: Some(container::ColourHeader {
             runs: runs.clone(),
             ..code.header

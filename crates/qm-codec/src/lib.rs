@@ -20,6 +20,7 @@
 //! back and chooses the output level by its error estimate ([`levels`]);
 //! `stream` ([`StreamDecoder`]) decodes a file received in pieces.
 
+pub mod atlas;
 mod basecode;
 mod colour;
 mod compressed;
@@ -34,6 +35,7 @@ mod stream;
 #[cfg(test)]
 mod tests;
 
+pub use atlas::Atlas;
 pub use basecode::coded_base_values;
 pub use compressed::Compressed;
 pub use container::{DEFAULT_MAX_MEMORY, Limits};

@@ -111,6 +111,12 @@ pub struct ColourHeader {
     /// bytes, then `runs[0][1]` colour bytes, then `runs[1][0]` geometry
     /// bytes and so on; each part is a prefix of its own stream.
     pub runs: Vec<[u32; 2]>,
+    /// Levels of colour beyond the geometry's: the colour stream codes one
+    /// colour per sample of level `level + finer`. Written after the runs,
+    /// as one byte, only with [`FINER_COLOUR`] set (which a value above 0
+    /// sets).
+    #[serde(skip)]
+    pub finer: u8,
 }
 
 impl ColourHeader {
@@ -155,8 +161,17 @@ pub const IMPLIED_SPLIT: u32 = 0x20;
 /// geometry's. Readers that predate it refuse it as a reserved flag.
 pub const COLOUR: u32 = 0x40;
 
+/// The flag of a file whose colours are finer than its geometry: a byte
+/// after the colour header gives [`ColourHeader::finer`], 1 to
+/// [`MAX_FINER_COLOUR`]. Needs [`COLOUR`]; readers that predate it refuse
+/// it as a reserved flag.
+pub const FINER_COLOUR: u32 = 0x80;
+
+/// Most levels of colour beyond the geometry's.
+pub const MAX_FINER_COLOUR: u8 = 4;
+
 /// Every flag bit with a meaning.
-const KNOWN_FLAGS: u32 = BASE_BITS_MASK | IMPLIED_SPLIT | COLOUR;
+const KNOWN_FLAGS: u32 = BASE_BITS_MASK | IMPLIED_SPLIT | COLOUR | FINER_COLOUR;
 
 impl Header {
     /// The first level whose frames use parent-quad normals, `None` for
@@ -254,6 +269,9 @@ pub fn encode_header(header: &Header) -> Result<Vec<u8>> {
     if let Some(colour) = &header.colour {
         bincode::serde::encode_into_std_write(colour, &mut bytes, config())
             .map_err(encode_error)?;
+        if header.flags & FINER_COLOUR != 0 {
+            bytes.push(colour.finer);
+        }
     }
     Ok(bytes)
 }
@@ -282,6 +300,12 @@ pub fn write(header: &Header, base: &BaseSection, stream: &[u8]) -> Result<Vec<u
     if header.colour.is_some() != (header.flags & COLOUR != 0) {
         return Err(Error::Malformed {
             what: "a colour header without the colour flag, or the flag without one".into(),
+        });
+    }
+    let finer = header.colour.as_ref().map_or(0, |c| c.finer);
+    if (header.flags & FINER_COLOUR != 0) != (finer > 0) {
+        return Err(Error::Malformed {
+            what: format!("{finer} finer colour levels, and the flag says otherwise"),
         });
     }
     if base.low_bits != low_bits {
@@ -391,8 +415,19 @@ impl Default for Limits {
 /// face's edge and interior points; shared edges counted twice, so an
 /// upper bound).
 pub fn sample_count(h: &Header) -> u64 {
+    samples_at(h, h.level as u32)
+}
+
+/// The level of the colour stream of `h` (with [`COLOUR`]): the geometry's
+/// level and [`ColourHeader::finer`] more; the geometry's without colour.
+pub fn colour_level(h: &Header) -> u32 {
+    h.level as u32 + h.colour.as_ref().map_or(0, |c| c.finer as u32)
+}
+
+/// [`sample_count`] of the layout at `level` over `h`'s base.
+fn samples_at(h: &Header, level: u32) -> u64 {
     // Saturating: callers may ask before the level is checked.
-    let m = (1u64 << h.level.min(63)) - 1;
+    let m = (1u64 << level.min(63)) - 1;
     let per_face = m.saturating_mul(m).saturating_add(m.saturating_mul(4));
     let faces = h.base_faces as u64;
     (h.base_vertices as u64).saturating_add(faces.saturating_mul(per_face))
@@ -408,7 +443,8 @@ pub fn decode_memory(h: &Header) -> u64 {
         } else {
             0
         };
-    sample_count(h)
+    // Finer colour makes the decoder's layout that fine.
+    samples_at(h, colour_level(h))
         .saturating_mul(per_sample)
         .saturating_add(base.saturating_mul(DECODE_BYTES_PER_BASE_ELEMENT))
 }
@@ -451,9 +487,20 @@ pub fn read<'a>(data: &'a [u8], limits: &Limits) -> Result<Container<'a>> {
     let (relative, more): (Vec<[u32; 2]>, usize) = decode_part(&header_raw[used..], "header")?;
     let mut used = used + more;
     let colour = if header.flags & COLOUR != 0 {
-        let (colour, more) = decode_part(&header_raw[used..], "colour header")?;
+        let (mut colour, more): (ColourHeader, usize) =
+            decode_part(&header_raw[used..], "colour header")?;
         used += more;
+        if header.flags & FINER_COLOUR != 0 {
+            colour.finer = *header_raw.get(used).ok_or_else(|| Error::Malformed {
+                what: "colour header: no finer colour levels".into(),
+            })?;
+            used += 1;
+        }
         Some(colour)
+    } else if header.flags & FINER_COLOUR != 0 {
+        return Err(Error::Malformed {
+            what: "finer colour levels without colour".into(),
+        });
     } else {
         None
     };
@@ -584,8 +631,20 @@ fn check_holds(holds: &[[u32; 2]]) -> Result<()> {
 
 /// The colour header's planes fit its values and weights, its base bits
 /// have planes, and its runs count at most 2^32 - 1 bytes of each stream.
-fn check_colour(c: &ColourHeader, level: u8) -> Result<()> {
+fn check_colour(c: &ColourHeader, flags: u32, level: u8) -> Result<()> {
     let malformed = |what: String| Err(Error::Malformed { what });
+    if (flags & FINER_COLOUR != 0) != (c.finer > 0) || c.finer > MAX_FINER_COLOUR {
+        return malformed(format!("{} finer colour levels", c.finer));
+    }
+    if level as u32 + c.finer as u32 > qm_lift::MAX_LEVEL {
+        return malformed(format!(
+            "colour at level {} beyond {}",
+            level as u32 + c.finer as u32,
+            qm_lift::MAX_LEVEL
+        ));
+    }
+    // The colour's weights and planes count its own levels.
+    let level = level + c.finer;
     if c.weight_bits > 2 || c.luma_bits > MAX_NORMAL_BITS {
         return malformed(format!(
             "colour weights of {} and {} bits",
@@ -696,7 +755,7 @@ fn check_header(h: &Header, limits: &Limits) -> Result<()> {
         });
     }
     if let Some(colour) = &h.colour {
-        check_colour(colour, h.level)?;
+        check_colour(colour, h.flags, h.level)?;
     }
     if !(h.step.is_finite() && h.step > 0.0 && h.origin.iter().all(|x| x.is_finite())) {
         return Err(Error::Malformed {
@@ -705,7 +764,7 @@ fn check_header(h: &Header, limits: &Limits) -> Result<()> {
     }
     // Upper bounds of the sample count and the memory before anything is
     // allocated.
-    let samples = sample_count(h);
+    let samples = samples_at(h, colour_level(h));
     limit("sample count", samples, limits.max_samples)?;
     let needed = decode_memory(h);
     if needed > limits.max_memory {

@@ -173,7 +173,7 @@ fn impossible_base_bits_and_unknown_flags_are_refused() {
         Err(Error::Malformed { what }) => assert!(what.contains("colour header"), "{what}"),
         other => panic!("{other:?}"),
     }
-    for flags in [0x80 | 10, 0x100 | 10, 1 << 31] {
+    for flags in [0x200 | 10, 0x100 | 10, 1 << 31] {
         let header = Header {
             flags,
             ..header.clone()
@@ -255,6 +255,7 @@ fn colour_headers_round_trip_and_bad_ones_are_refused() {
         base_min: [-3, 1900, 2047],
         base_max: [400, 2000, 2047],
         runs: vec![[100, 40], [0, 7], [900, 0]],
+        finer: 0,
     };
     let coloured = Header {
         flags: header.flags | COLOUR,
@@ -305,6 +306,50 @@ fn colour_headers_round_trip_and_bad_ones_are_refused() {
             other => panic!("case {i}: {other:?}"),
         }
     }
+    // Finer colour: its byte after the runs comes back; it needs its
+    // flag, the flag needs colour, and the levels are bounded.
+    let finer = Header {
+        flags: coloured.flags | FINER_COLOUR,
+        colour: Some(ColourHeader {
+            finer: 2,
+            ..colour.clone()
+        }),
+        ..coloured.clone()
+    };
+    let bytes = write(&finer, &base, b"stream").unwrap();
+    assert_eq!(read(&bytes, &Limits::DEFAULT).unwrap().header, finer);
+    let unflagged = Header {
+        flags: coloured.flags,
+        ..finer.clone()
+    };
+    assert!(write(&unflagged, &base, b"").is_err());
+    let bad = [
+        (coloured.flags | FINER_COLOUR, 0),
+        (coloured.flags | FINER_COLOUR, MAX_FINER_COLOUR + 1),
+        (header.flags | FINER_COLOUR, 1),
+    ];
+    for (i, (flags, finer)) in bad.into_iter().enumerate() {
+        let file = sealed_header(&Header {
+            flags,
+            colour: (flags & COLOUR != 0).then(|| ColourHeader {
+                finer,
+                ..colour.clone()
+            }),
+            ..coloured.clone()
+        });
+        match read(&file, &Limits::DEFAULT) {
+            Err(Error::Malformed { what }) => assert!(what.contains("colour"), "finer {i}: {what}"),
+            other => panic!("finer {i}: {other:?}"),
+        }
+    }
+    // Finer colour counts its samples against the limits.
+    let limits = Limits {
+        max_samples: sample_count(&coloured),
+        ..Limits::DEFAULT
+    };
+    assert!(read(&write(&coloured, &base, b"").unwrap(), &limits).is_ok());
+    let fine = write(&finer, &base, b"").unwrap();
+    assert!(matches!(read(&fine, &limits), Err(Error::Limit { .. })));
     // The flag without the header after the holds: the header ends early.
     let file = sealed_header(&Header {
         colour: None,

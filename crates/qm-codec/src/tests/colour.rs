@@ -4,7 +4,7 @@
 use qm_lift::SemiRegularMesh;
 use qm_lift::synthetic::bumpy_sphere as sphere;
 
-use crate::container::{COLOUR, Limits};
+use crate::container::{COLOUR, FINER_COLOUR, Limits};
 use crate::decode::{DecodeOptions, Decoder, decompress};
 use crate::encode::{EncodeOptions, compress, compress_coloured};
 use crate::levels::LevelChoice;
@@ -163,4 +163,59 @@ fn a_stream_decoder_waits_for_the_last_colour_byte() {
     }
     assert!(!decoder.wants_more());
     assert_eq!(decoder.mesh().unwrap().colours(), Some(&rgb[..]));
+}
+
+/// Colours at levels finer than the geometry's: the geometry is the
+/// geometry-only file's, the colours come back exactly as a texture at the
+/// last byte, every cut decodes with a texture no finer than the colour
+/// reached, and the mesh's own colours stay one per vertex.
+#[test]
+fn colours_finer_than_the_geometry_come_back_as_a_texture() {
+    let mesh = sphere(2);
+    let plain = compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
+    for finer in [1u32, 2] {
+        let fine = sphere(2 + finer);
+        assert_eq!(fine.layout().base(), mesh.layout().base());
+        let rgb = colours(&fine);
+        let c = compress_coloured(&mesh, &rgb, &EncodeOptions::DEFAULT, None).unwrap();
+        let d = decompress(&c.bytes, &DecodeOptions::FINEST).unwrap();
+        assert_eq!(d.header.flags & FINER_COLOUR, FINER_COLOUR);
+        assert_eq!(d.header.colour.as_ref().unwrap().finer as u32, finer);
+        assert_eq!(d.values, plain.quantized, "finer {finer}: geometry");
+        assert_eq!(d.level, 2);
+        assert_eq!(d.colours.as_ref().unwrap().len(), d.level_mesh().0.len());
+        let atlas = d.texture.as_ref().expect("a texture");
+        assert_eq!(atlas.level, 2 + finer);
+        let layout = fine.layout();
+        let n = layout.n() as u32;
+        for f in 0..layout.face_count() {
+            for j in 0..=n {
+                for i in 0..=n {
+                    let [u, v] = atlas.texcoord(f, 2 + finer, i, j);
+                    let x = (u * atlas.width as f32) as usize;
+                    let y = (v * atlas.height as f32) as usize;
+                    let s = layout.sample(f, i as usize, j as usize) as usize;
+                    assert_eq!(atlas.texels[y * atlas.width as usize + x], rgb[s]);
+                }
+            }
+        }
+        // Cuts: each decodes, its texture at most the colour's level and
+        // finer than the mesh.
+        let start = c.header_bytes + c.base_bytes;
+        let mut textured = 0;
+        for cut in (start..c.bytes.len()).step_by((c.bytes.len() - start) / 30 + 1) {
+            let d = decompress(&c.bytes[..cut], &DecodeOptions::DEFAULT).unwrap();
+            assert_eq!(d.colours.as_ref().unwrap().len(), d.level_mesh().0.len());
+            if let Some(atlas) = &d.texture {
+                assert!(atlas.level > d.level && atlas.level <= 2 + finer);
+                textured += 1;
+            }
+        }
+        assert!(textured > 0);
+    }
+    // Colours at the geometry's level make no texture.
+    let c = compress_coloured(&mesh, &colours(&mesh), &EncodeOptions::DEFAULT, None).unwrap();
+    let d = decompress(&c.bytes, &DecodeOptions::FINEST).unwrap();
+    assert_eq!(d.header.flags & FINER_COLOUR, 0);
+    assert!(d.texture.is_none());
 }
