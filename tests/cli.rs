@@ -779,7 +779,6 @@ fn compress_names_every_attribute_it_cannot_carry() {
         std::fs::metadata(d.join("j.qm")).unwrap().len()
     );
 
-    // The bundled assets: a textured GLB and a vertex-coloured PLY.
     // The bundled assets: a textured GLB and a vertex-coloured PLY, with
     // their look and without.
     for (name, geometry_only, expected) in [
@@ -963,4 +962,76 @@ fn distance_reports_colour_psnr_when_both_meshes_have_colours() {
         let text = String::from_utf8(out.stdout).unwrap();
         assert!(!text.contains("colour"), "{text}");
     }
+}
+
+/// A cube of six quads under a texture with detail far finer than its
+/// eight corners: the stream carries the texture's colours at finer levels
+/// than the geometry, `decompress` writes them as OBJ + MTL + PNG, and that
+/// texture is far closer to the input's colours than the same decode's
+/// colours at the vertices (PLY).
+#[test]
+fn a_texture_finer_than_the_mesh_comes_back_as_a_texture() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let size = 128u32;
+    let texels: Vec<[u8; 3]> = (0..size * size)
+        .map(|k| {
+            let (x, y) = (
+                (k % size) as f64 / size as f64,
+                (k / size) as f64 / size as f64,
+            );
+            let wave = |a: f64, b: f64| (127.5 + 120.0 * (a * x + b * y).sin()) as u8;
+            [wave(20.0, 3.0), wave(-6.0, 17.0), wave(11.0, 11.0)]
+        })
+        .collect();
+    std::fs::write(d.join("waves.png"), qm::io::png_bytes(size, size, &texels)).unwrap();
+    std::fs::write(d.join("cube.mtl"), "newmtl w\nmap_Kd waves.png\n").unwrap();
+    let mut obj = String::from("mtllib cube.mtl\nusemtl w\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n");
+    for k in 0..8 {
+        obj += &format!("v {} {} {}\n", k & 1, (k >> 1) & 1, k >> 2);
+    }
+    for f in [
+        [1, 3, 4, 2],
+        [5, 6, 8, 7],
+        [1, 2, 6, 5],
+        [3, 7, 8, 4],
+        [1, 5, 7, 3],
+        [2, 4, 8, 6],
+    ] {
+        obj += &format!("f {}/1 {}/2 {}/3 {}/4\n", f[0], f[1], f[2], f[3]);
+    }
+    std::fs::write(d.join("cube.obj"), obj).unwrap();
+    let out = qm(&["compress", "cube.obj", "--quiet"], d);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = qm(&["info", "cube.qm", "--json"], d);
+    let info: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(info["level"], 0, "{info}");
+    assert_eq!(info["colour"]["level"], 5, "{info}");
+    let colour_psnr = |output: &str, bytes: Option<&str>| {
+        let mut args = vec!["decompress", "cube.qm", "-o", output, "--quiet"];
+        args.extend(bytes.map(|b| ["--bytes", b]).into_iter().flatten());
+        let out = qm(&args, d);
+        assert!(out.status.success(), "{}", stderr(&out));
+        let out = qm(&["distance", "cube.obj", output, "--json"], d);
+        assert!(out.status.success(), "{}", stderr(&out));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        v["colour"]["psnr_db"].as_f64().unwrap()
+    };
+    let textured = colour_psnr("t.obj", None);
+    for file in ["t.obj", "t.mtl", "t.png"] {
+        assert!(d.join(file).exists(), "{file}");
+    }
+    let at_vertices = colour_psnr("v.ply", None);
+    assert!(
+        textured > 30.0 && textured > at_vertices + 10.0,
+        "texture {textured:.1} dB, vertex colours {at_vertices:.1} dB"
+    );
+    // A prefix: a coarser texture, still a texture.
+    let len = std::fs::metadata(d.join("cube.qm")).unwrap().len();
+    let prefix = colour_psnr("p.obj", Some(&(len / 3).to_string()));
+    assert!(d.join("p.png").exists());
+    assert!(
+        prefix < textured,
+        "{prefix:.1} dB of a third, {textured:.1} dB whole"
+    );
 }

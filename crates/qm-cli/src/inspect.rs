@@ -50,6 +50,8 @@ struct ColourInfo {
     /// Runs the two streams are interleaved in.
     runs: usize,
     planes: u8,
+    /// The colour's subdivision level: the geometry's, or finer (a texture).
+    level: u32,
 }
 
 /// One row of `qm info --levels`: what the prefix ending at a pass decodes to.
@@ -125,6 +127,7 @@ pub fn info(input: &Path, levels: bool, json: bool) -> Result<(), Failure> {
             geometry_stream_bytes: colour.runs.iter().map(|r| r[0] as u64).sum(),
             runs: colour.runs.len(),
             planes: colour.planes,
+            level: h.level as u32 + colour.finer as u32,
         }),
         levels,
     };
@@ -145,12 +148,18 @@ pub fn info(input: &Path, levels: bool, json: bool) -> Result<(), Failure> {
         }
         if let Some(c) = &info.colour {
             out!(
-                "{:>18}: {} bytes beside {} of geometry, in {} runs, {} planes",
+                "{:>18}: {} bytes beside {} of geometry, in {} runs, {} planes, level {}{}",
                 "colour",
                 c.stream_bytes,
                 c.geometry_stream_bytes,
                 c.runs,
-                c.planes
+                c.planes,
+                c.level,
+                if c.level > u32::from(info.level) {
+                    " (finer than the geometry: decoded as a texture)"
+                } else {
+                    ""
+                }
             );
         }
         if let Some(rows) = &info.levels {

@@ -737,11 +737,7 @@ fn decompress(
     progress.step("decoding");
     let decoded = qm::decode(&data, options).map_err(|e| Failure::about(input, e))?;
     progress.step("writing mesh");
-    match decoded.colours() {
-        Some(colours) => qm::write_coloured_mesh(&output, &decoded.mesh, colours),
-        None => qm::write_mesh(&output, &decoded.mesh),
-    }
-    .map_err(|e| Failure::about(&output, e))?;
+    qm::write_decoded(&output, &decoded).map_err(|e| Failure::about(&output, e))?;
     progress.finish();
     if !quiet {
         let raw = &decoded.raw;

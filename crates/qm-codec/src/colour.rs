@@ -167,26 +167,6 @@ pub(crate) fn encode(
         whole: true,
         rounded: false,
     };
-    let encoded = qm_ezw::encode(
-        &tree,
-        &coefs,
-        Some(base),
-        WEIGHTING,
-        Contexts::Neighbours,
-        None,
-    );
-    let params = encoded.params;
-    let header = ColourHeader {
-        planes: params.planes as u8,
-        passes: params.passes as u8,
-        weight_bits: WEIGHTING.bits_per_level as u8,
-        luma_bits: WEIGHTING.normal_bits as u8,
-        base_bits: params.base_bits as u8,
-        base_min,
-        base_max,
-        runs: Vec::new(),
-        finer: finer as u8,
-    };
     // The floor: what the lossless stream keeps (rounding), and what the
     // samples miss between them, taken as what dropping the finest level
     // of details would cost.
@@ -201,31 +181,112 @@ pub(crate) fn encode(
             lifting.inverse(&mut coarse);
             mean_squared(&coarse, colours)
         };
-    let len = encoded.bytes.len();
-    let mut cuts = crate::holds::cuts(len, curve_work(colours.len()), &encoded.pass_ends);
-    cuts.insert(0, 0);
-    let mut decode_tree = ZeroTree::new(layout);
-    let mut checkpoint = None;
-    let mut values = Vec::new();
-    let mut curve = Vec::with_capacity(cuts.len());
-    for cut in cuts {
-        let (decoded, next) = qm_ezw::decode_resuming(
-            &mut decode_tree,
-            params,
-            &encoded.bytes[..cut],
-            None,
-            checkpoint.take(),
-        );
-        checkpoint = next;
-        fill(layout, &decode_tree, &decoded, &header, &mut values);
-        lifting.inverse(&mut values);
-        curve.push((cut, mean_squared(&values, colours) + floor));
+    let encode = |max_passes| {
+        qm_ezw::encode(
+            &tree,
+            &coefs,
+            Some(base),
+            WEIGHTING,
+            Contexts::Neighbours,
+            max_passes,
+        )
+    };
+    let mut encoded = encode(None);
+    let mut header = ColourHeader {
+        planes: encoded.params.planes as u8,
+        passes: encoded.params.passes as u8,
+        weight_bits: WEIGHTING.bits_per_level as u8,
+        luma_bits: WEIGHTING.normal_bits as u8,
+        base_bits: encoded.params.base_bits as u8,
+        base_min,
+        base_max,
+        runs: Vec::new(),
+        finer: finer as u8,
+    };
+    // Colours finer than the geometry are a texture resampled: the stream
+    // ends at the first pass whose error is a quarter of what the samples
+    // miss, beyond which a pass buys less than 1 dB against the texture.
+    if finer > 0 {
+        let mut measure = Measure::new(layout, &lifting, &header, colours);
+        let stop = (encoded.pass_ends.iter())
+            .position(|&end| measure.at(&encoded.bytes[..end]) <= floor / 4.0);
+        if let Some(k) = stop
+            && k + 1 < encoded.pass_ends.len()
+        {
+            encoded = encode(Some(k as u32 + 1));
+            header.passes = encoded.params.passes as u8;
+        }
     }
+    let mut cuts = crate::holds::cuts(
+        encoded.bytes.len(),
+        curve_work(colours.len()),
+        &encoded.pass_ends,
+    );
+    cuts.insert(0, 0);
+    let mut measure = Measure::new(layout, &lifting, &header, colours);
+    let errors: Vec<f64> = cuts
+        .iter()
+        .map(|&cut| measure.at(&encoded.bytes[..cut]))
+        .collect();
+    let curve = cuts
+        .into_iter()
+        .zip(errors)
+        .map(|(cut, e)| (cut, e + floor))
+        .collect();
     Ok(ColourCode {
         bytes: encoded.bytes,
         header,
         curve,
     })
+}
+
+/// The error of longer and longer prefixes of a colour stream, each
+/// decode resuming from the last.
+struct Measure<'a> {
+    layout: &'a Layout,
+    lifting: &'a Lifting<'a>,
+    header: &'a ColourHeader,
+    colours: &'a [[u8; 3]],
+    tree: ZeroTree,
+    checkpoint: Option<qm_ezw::Checkpoint>,
+    values: Vec<Coord>,
+}
+
+impl<'a> Measure<'a> {
+    fn new(
+        layout: &'a Layout,
+        lifting: &'a Lifting<'a>,
+        header: &'a ColourHeader,
+        colours: &'a [[u8; 3]],
+    ) -> Self {
+        Measure {
+            layout,
+            lifting,
+            header,
+            colours,
+            tree: ZeroTree::new(layout),
+            checkpoint: None,
+            values: Vec::new(),
+        }
+    }
+
+    /// Mean squared RGB error per channel of the decode of `prefix`, at
+    /// least as long as the last one measured.
+    fn at(&mut self, prefix: &[u8]) -> f64 {
+        let params = self.header.stream_params(self.layout.base().vertex_count());
+        let (decoded, next) =
+            qm_ezw::decode_resuming(&mut self.tree, params, prefix, None, self.checkpoint.take());
+        self.checkpoint = next;
+        fill(
+            self.layout,
+            &self.tree,
+            &decoded,
+            self.header,
+            &mut self.values,
+        );
+        self.lifting.inverse(&mut self.values);
+        mean_squared(&self.values, self.colours)
+    }
 }
 
 /// Most cuts of each stream the interleaving measures, besides the pass

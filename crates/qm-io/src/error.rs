@@ -180,6 +180,8 @@ pub enum Problem {
         /// How many vertices the mesh has.
         vertices: usize,
     },
+    /// A texture to write does not fit the mesh or its own size.
+    Texture(String),
     /// The text or binary layout does not follow the format.
     Syntax(String),
     /// A valid variant of the format that this reader does not handle.
@@ -225,7 +227,7 @@ impl fmt::Display for Problem {
             Problem::ColourCount { colours, vertices } => {
                 write!(f, "{colours} colours for {vertices} vertices")
             }
-            Problem::Syntax(message) => write!(f, "{message}"),
+            Problem::Syntax(message) | Problem::Texture(message) => write!(f, "{message}"),
             Problem::Unsupported(what) => write!(f, "unsupported: {what}"),
             Problem::Resource { what, cause } => write!(f, "cannot read {what}: {cause}"),
         }

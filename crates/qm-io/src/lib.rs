@@ -79,6 +79,7 @@ mod ply;
 mod polymesh;
 mod rng;
 mod stl;
+mod textured;
 
 use std::fmt;
 use std::fs;
@@ -95,6 +96,7 @@ pub use error::{MeshError, Problem};
 pub use glam;
 pub use polymesh::PolyMesh;
 pub use rng::SplitMix64;
+pub use textured::{OutputTexture, png_bytes, textured_files, write_textured_mesh};
 
 /// A mesh file format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

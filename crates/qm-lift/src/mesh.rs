@@ -90,6 +90,40 @@ impl SemiRegularMesh {
         &self.positions
     }
 
+    /// The mesh `finer` levels finer: the same base and points, every
+    /// finer sample placed inside its quad of this mesh's finest grid on
+    /// the two flat triangles a renderer draws for it, split along the
+    /// diagonal from grid corner `(i, j)` to `(i + 1, j + 1)` (corners 0
+    /// and 2 of [`Layout::quads`]): where a texture mapped by grid
+    /// position shows each point. Numbered as [`Layout::new`] numbers
+    /// that level; fails where that level is beyond what a layout allows.
+    pub fn refined(&self, finer: u32) -> Result<SemiRegularMesh> {
+        let layout = Layout::new(self.layout.base().clone(), self.layout.level() + finer)?;
+        let (n, scale) = (self.layout.n(), 1usize << finer);
+        // A point `x` of the fine grid: the coarse cell it lies in and where.
+        let cell = |x: usize| {
+            let a = (x / scale).min(n - 1);
+            (a, x as f64 / scale as f64 - a as f64)
+        };
+        let mut positions = vec![DVec3::ZERO; layout.sample_count()];
+        for f in 0..layout.face_count() {
+            let at = |i: usize, j: usize| self.positions[self.layout.sample(f, i, j) as usize];
+            for j in 0..=n * scale {
+                let (b, t) = cell(j);
+                for i in 0..=n * scale {
+                    let (a, s) = cell(i);
+                    let (p0, p2) = (at(a, b), at(a + 1, b + 1));
+                    positions[layout.sample(f, i, j) as usize] = if s >= t {
+                        p0 + s * (at(a + 1, b) - p0) + t * (p2 - at(a + 1, b))
+                    } else {
+                        p0 + s * (p2 - at(a, b + 1)) + t * (at(a, b + 1) - p0)
+                    };
+                }
+            }
+        }
+        SemiRegularMesh::new(layout, positions)
+    }
+
     /// Splits into layout and positions.
     pub fn into_parts(self) -> (Layout, Vec<DVec3>) {
         (self.layout, self.positions)
@@ -214,6 +248,48 @@ pub fn unit_scale(points: &[DVec3]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn refined_meshes_keep_their_points_and_interpolate_between() {
+        let mesh = crate::synthetic::bumpy_sphere(2);
+        let same = mesh.refined(0).unwrap();
+        assert_eq!(same.positions(), mesh.positions());
+        let fine = mesh.refined(2).unwrap();
+        let (coarse, finer) = (mesh.layout(), fine.layout());
+        assert_eq!(finer.level(), 4);
+        for f in 0..coarse.face_count() {
+            for j in 0..4 {
+                for i in 0..4 {
+                    let p = |i, j| mesh.positions()[coarse.sample(f, i, j) as usize];
+                    let q = |i, j| fine.positions()[finer.sample(f, i, j) as usize];
+                    assert_eq!(q(4 * i, 4 * j), p(i, j));
+                    // On the diagonal, the edges, and inside each triangle.
+                    let middle = p(i, j).lerp(p(i + 1, j + 1), 0.5);
+                    assert!(q(4 * i + 2, 4 * j + 2).distance(middle) < 1e-12);
+                    let quarter = p(i, j).lerp(p(i + 1, j), 0.25);
+                    assert!(q(4 * i + 1, 4 * j).distance(quarter) < 1e-12);
+                    let side = p(i, j).lerp(p(i, j + 1), 0.75);
+                    assert!(q(4 * i, 4 * j + 3).distance(side) < 1e-12);
+                    let below = (p(i, j) + p(i + 1, j) + p(i + 1, j + 1)) / 3.0;
+                    let above = (p(i, j) + p(i + 1, j + 1) + p(i, j + 1)) / 3.0;
+                    let on_triangles = |x: f64, y: f64| {
+                        // (x, y) in the cell: inside triangle 0-1-2 for x > y.
+                        let (p0, p1, p2, p3) = (p(i, j), p(i + 1, j), p(i + 1, j + 1), p(i, j + 1));
+                        if x >= y {
+                            p0 + x * (p1 - p0) + y * (p2 - p1)
+                        } else {
+                            p0 + x * (p2 - p3) + y * (p3 - p0)
+                        }
+                    };
+                    assert!(on_triangles(2.0 / 3.0, 1.0 / 3.0).distance(below) < 1e-12);
+                    assert!(on_triangles(1.0 / 3.0, 2.0 / 3.0).distance(above) < 1e-12);
+                    assert!(q(4 * i + 3, 4 * j + 1).distance(on_triangles(0.75, 0.25)) < 1e-12);
+                    assert!(q(4 * i + 1, 4 * j + 2).distance(on_triangles(0.25, 0.5)) < 1e-12);
+                }
+            }
+        }
+        assert!(mesh.refined(crate::MAX_LEVEL).is_err());
+    }
 
     #[test]
     fn byte_sizes_read_as_people_write_them() {

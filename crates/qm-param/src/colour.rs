@@ -130,6 +130,32 @@ impl<'a> ColourSurface<'a> {
         points.par_iter().map(|&p| self.colour_at(p)).collect()
     }
 
+    /// The material of face `face`, if any.
+    fn material(&self, face: usize) -> Option<&'a Material> {
+        material_of(self.asset, face)
+    }
+
+    /// For fanned triangle `t` of a textured face: its material, the
+    /// material's image and the texture coordinates of its corners.
+    fn textured(&self, t: usize) -> Option<(&'a Material, &'a Image, [[f32; 2]; 3])> {
+        let [face, k] = self.fans[t].map(|x| x as usize);
+        let material = self.material(face)?;
+        let image = image_of(material)?;
+        let uv = self.asset.tex_coords.as_ref()?;
+        let first = self.first_corners[face] as usize;
+        let corners = [first, first + k + 1, first + k + 2].map(|c| uv.get(c));
+        let [Some(a), Some(b), Some(c)] = corners else {
+            return None;
+        };
+        Some((material, image, [a, b, c]))
+    }
+
+    /// Texels of decoded texture images that the surface shows
+    /// ([`texels`]).
+    pub fn texels(&self) -> f64 {
+        texels(self.asset)
+    }
+
     /// The colour (0..1) at the point closest to `p`, given moved and
     /// scaled as the search is.
     fn colour_moved(&self, p: DVec3) -> [f64; 3] {
@@ -140,24 +166,13 @@ impl<'a> ColourSurface<'a> {
     /// The colour (0..1) at barycentric coordinates `w` of fanned triangle
     /// `t`.
     fn colour_on(&self, t: usize, w: [f64; 3]) -> [f64; 3] {
-        let [face, k] = self.fans[t].map(|x| x as usize);
-        let material = match &self.asset.face_materials {
-            Some(list) => self.asset.materials.get(list[face] as usize),
-            None => self.asset.materials.first(),
-        };
-        if let (Some(material), Some(uv)) = (material, &self.asset.tex_coords)
-            && let Some(image) = image_of(material)
-        {
-            let first = self.first_corners[face] as usize;
-            let corners = [first, first + k + 1, first + k + 2].map(|c| uv.get(c));
-            if let [Some(a), Some(b), Some(c)] = corners {
-                let at = |i: usize| {
-                    w[0] * f64::from(a[i]) + w[1] * f64::from(b[i]) + w[2] * f64::from(c[i])
-                };
-                let texel = bilinear(image, at(0), at(1));
-                return std::array::from_fn(|i| texel[i] * f64::from(material.base_color[i]));
-            }
+        if let Some((material, image, [a, b, c])) = self.textured(t) {
+            let at =
+                |i: usize| w[0] * f64::from(a[i]) + w[1] * f64::from(b[i]) + w[2] * f64::from(c[i]);
+            let texel = bilinear(image, at(0), at(1));
+            return std::array::from_fn(|i| texel[i] * f64::from(material.base_color[i]));
         }
+        let material = self.material(self.fans[t][0] as usize);
         if let Some(colours) = &self.asset.colors {
             let [a, b, c] = self.triangles[t].map(|v| colours[v as usize]);
             return std::array::from_fn(|i| {
@@ -166,6 +181,44 @@ impl<'a> ColourSurface<'a> {
         }
         material.map_or(GREY, |m| [0, 1, 2].map(|i| f64::from(m.base_color[i])))
     }
+}
+
+/// The material of face `face` of `asset`, if any.
+fn material_of(asset: &Asset, face: usize) -> Option<&Material> {
+    match &asset.face_materials {
+        Some(list) => asset.materials.get(*list.get(face)? as usize),
+        None => asset.materials.first(),
+    }
+}
+
+/// Texels of decoded texture images that `asset`'s surface shows: over
+/// the faces with a decoded base colour image and texture coordinates at
+/// their corners (rule 1 of the module docs), each fanned triangle's area
+/// in texture space times its image's texel count (an image repeated over
+/// the surface counts each time). 0 without a texture. The colour a
+/// remesh can carry is as fine as this many samples spread over the
+/// surface.
+pub fn texels(asset: &Asset) -> f64 {
+    let Some(uv) = &asset.tex_coords else {
+        return 0.0;
+    };
+    let mut first = 0;
+    let mut sum = 0.0;
+    for (f, face) in asset.mesh.faces().enumerate() {
+        if let Some(image) = material_of(asset, f).and_then(image_of) {
+            let texels = image.width as f64 * image.height as f64;
+            for k in 0..face.len().saturating_sub(2) {
+                let corners = [first, first + k + 1, first + k + 2].map(|c| uv.get(c));
+                if let [Some(a), Some(b), Some(c)] = corners {
+                    let d = |p: [f32; 2]| [f64::from(p[0] - a[0]), f64::from(p[1] - a[1])];
+                    let ([x1, y1], [x2, y2]) = (d(b), d(c));
+                    sum += 0.5 * (x1 * y2 - x2 * y1).abs() * texels;
+                }
+            }
+        }
+        first += face.len();
+    }
+    sum
 }
 
 /// The decoded base colour image of a material, if any.

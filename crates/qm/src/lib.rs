@@ -78,7 +78,8 @@ pub fn read_asset(path: impl AsRef<Path>, options: &AssetOptions) -> Result<Asse
 /// has appearance ([`param::ColourSurface::has_appearance`]) its surface
 /// colour is carried, one colour per sample: vertex colours and materials'
 /// base colours are then not listed, while alpha, texture coordinates and
-/// the images themselves are (the images' colours are sampled). Without
+/// the images themselves are (the images' colours are resampled, finer
+/// than the mesh where the images are: [`finer_colour_levels`]). Without
 /// appearance, the stream holds the geometry alone.
 pub fn not_carried(asset: &Asset) -> Vec<io::Dropped> {
     let coloured = qm_param::ColourSurface::has_appearance(asset);
@@ -88,12 +89,14 @@ pub fn not_carried(asset: &Asset) -> Vec<io::Dropped> {
         list.retain(|d| !matches!(d.kind, VertexColors | Materials));
         for d in &mut list {
             match d.kind {
-                TexCoords => d
-                    .detail
-                    .push_str(" (the texture's colours are carried per sample)"),
-                Textures => d
-                    .detail
-                    .push_str(" (their colours are sampled at each sample instead)"),
+                TexCoords => d.detail.push_str(
+                    " (the texture's colours are carried per sample, and where the texture \
+                     is finer than the mesh as a texture whose coordinates decoders derive)",
+                ),
+                Textures => d.detail.push_str(
+                    " (resampled: their colours per sample, finer than the mesh where \
+                     they are)",
+                ),
                 _ => {}
             }
         }
@@ -200,8 +203,38 @@ pub fn encode_prepared_asset(
     let Some(surface) = qm_param::ColourSurface::new(asset)? else {
         return encode_prepared(prepared, &asset.mesh, options);
     };
-    let colours = surface.colours_at(prepared.mesh.positions());
+    let finer = finer_colour_levels(surface.texels(), prepared.mesh.layout());
+    let colours = if finer == 0 {
+        surface.colours_at(prepared.mesh.positions())
+    } else {
+        let fine = prepared.mesh.refined(finer).map_err(codec::Error::from)?;
+        surface.colours_at(fine.positions())
+    };
     encode_with(prepared, &asset.mesh, Some(&colours), options)
+}
+
+/// Most colour samples that a texture's detail earns beyond the geometry's
+/// (docs/appearance.md, "Texture detail").
+pub const MAX_COLOUR_SAMPLES: u64 = 1 << 22;
+
+/// The levels of colour beyond `layout`'s that a surface showing `texels`
+/// texture texels ([`param::ColourSurface::texels`]) earns: the finest
+/// level with no more samples than texels (none where the geometry's
+/// samples are as many), at most [`codec::container::MAX_FINER_COLOUR`]
+/// levels and [`MAX_COLOUR_SAMPLES`] samples.
+pub fn finer_colour_levels(texels: f64, layout: &codec::qm_lift::Layout) -> u32 {
+    let base = layout.base();
+    let samples = |finer: u32| base.sample_count(layout.level() + finer) as f64;
+    let most = codec::container::MAX_FINER_COLOUR as u32;
+    let mut finer = 0;
+    while finer < most
+        && samples(finer + 1) <= MAX_COLOUR_SAMPLES as f64
+        && samples(finer + 1) <= texels
+        && codec::qm_lift::Layout::check(base, layout.level() + finer + 1).is_ok()
+    {
+        finer += 1;
+    }
+    finer
 }
 
 /// A decoded `.qm` stream or prefix of one.
@@ -256,6 +289,49 @@ impl Decoded {
     /// [`Decoded::mesh`].
     pub fn colours(&self) -> Option<&[[u8; 3]]> {
         self.raw.colours.as_deref()
+    }
+
+    /// For a file whose colours reached a finer level than
+    /// [`Decoded::mesh`]'s: those colours as a texture atlas, one tile a
+    /// base quad ([`codec::Atlas`]); the coordinates of the mesh's face
+    /// corners are [`Decoded::corner_texcoords`].
+    pub fn texture(&self) -> Option<&codec::Atlas> {
+        self.raw.texture.as_ref()
+    }
+
+    /// With a [`Decoded::texture`]: the texture coordinates of each corner
+    /// of [`Decoded::mesh`]'s faces, in order, `(0, 0)` at the image's
+    /// top-left corner.
+    pub fn corner_texcoords(&self) -> Option<Vec<[f32; 2]>> {
+        let atlas = self.texture()?;
+        Some(atlas.corner_texcoords(self.raw.layout.face_count(), self.raw.level))
+    }
+}
+
+/// Writes a decode with its look, atomically: with a
+/// [`Decoded::texture`], OBJ with a material library and a PNG image
+/// beside it ([`io::textured_files`]; PLY gets the colours at the
+/// vertices); with colours, one a vertex ([`write_coloured_mesh`]);
+/// otherwise the mesh alone.
+pub fn write_decoded(path: impl AsRef<Path>, decoded: &Decoded) -> Result<()> {
+    let path = path.as_ref();
+    let obj = qm_io::Format::from_path(path) == Some(qm_io::Format::Obj);
+    match (
+        decoded.texture(),
+        decoded.corner_texcoords(),
+        decoded.colours(),
+    ) {
+        (Some(atlas), Some(corners), _) if obj => {
+            let texture = qm_io::OutputTexture {
+                width: atlas.width,
+                height: atlas.height,
+                texels: &atlas.texels,
+                corners: &corners,
+            };
+            Ok(qm_io::write_textured_mesh(path, &decoded.mesh, &texture)?)
+        }
+        (_, _, Some(colours)) => write_coloured_mesh(path, &decoded.mesh, colours),
+        _ => write_mesh(path, &decoded.mesh),
     }
 }
 
@@ -339,14 +415,26 @@ pub fn prepare_reporting(
 
 /// Bytes that `asset`'s appearance holds while its mesh is remeshed and
 /// encoded beyond what the memory model charges the mesh: its decoded
-/// texture images. Vertex colours, and the colours sampled and coded per
-/// sample, stay below the remesh's own peak (docs/appearance.md, "Memory").
+/// texture images, and the colours sampled finer than the geometry where a
+/// texture asks for them, at [`FINER_COLOUR_BYTES_PER_SAMPLE`]
+/// ([`finer_colour_levels`] takes between a quarter of the texture's
+/// texels, [`param::colour::texels`], and all of them, at most
+/// [`MAX_COLOUR_SAMPLES`]: half of them is the estimate). Vertex
+/// colours, and colours at the geometry's samples, stay below the remesh's
+/// own peak (docs/appearance.md, "Memory").
 pub fn appearance_bytes(asset: &Asset) -> u64 {
-    (asset.materials.iter())
+    let images: u64 = (asset.materials.iter())
         .filter_map(|m| m.base_color_texture.as_ref()?.image.as_ref())
         .map(|i| i.rgba.len() as u64)
-        .sum()
+        .sum();
+    let samples = (qm_param::colour::texels(asset) / 2.0).min(MAX_COLOUR_SAMPLES as f64) as u64;
+    images + samples * FINER_COLOUR_BYTES_PER_SAMPLE
 }
+
+/// Bytes each colour sample finer than the geometry takes while it is
+/// sampled and coded: its position and colour, its lifting, trees and
+/// coder (measured about 110 on two textured controllers: docs/appearance.md).
+pub const FINER_COLOUR_BYTES_PER_SAMPLE: u64 = 128;
 
 /// [`prepare_reporting`] of `asset`'s mesh, with what its appearance holds
 /// ([`appearance_bytes`]) counted against [`RemeshOptions::max_memory`]

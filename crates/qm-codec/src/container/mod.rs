@@ -168,7 +168,7 @@ pub const COLOUR: u32 = 0x40;
 pub const FINER_COLOUR: u32 = 0x80;
 
 /// Most levels of colour beyond the geometry's.
-pub const MAX_FINER_COLOUR: u8 = 4;
+pub const MAX_FINER_COLOUR: u8 = 6;
 
 /// Every flag bit with a meaning.
 const KNOWN_FLAGS: u32 = BASE_BITS_MASK | IMPLIED_SPLIT | COLOUR | FINER_COLOUR;
