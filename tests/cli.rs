@@ -966,8 +966,8 @@ fn distance_reports_colour_psnr_when_both_meshes_have_colours() {
 
 /// A cube of six quads under a texture with detail far finer than its
 /// eight corners: the stream carries the texture's colours at finer levels
-/// than the geometry, `decompress` writes them as OBJ + MTL + PNG, and that
-/// texture is far closer to the input's colours than the same decode's
+/// than the geometry, `decompress` writes them as OBJ + MTL + PNG or into a
+/// GLB, and that texture is far closer to the input's colours than the same decode's
 /// colours at the vertices (PLY).
 #[test]
 fn a_texture_finer_than_the_mesh_comes_back_as_a_texture() {
@@ -1021,6 +1021,12 @@ fn a_texture_finer_than_the_mesh_comes_back_as_a_texture() {
     for file in ["t.obj", "t.mtl", "t.png"] {
         assert!(d.join(file).exists(), "{file}");
     }
+    // The same texture embedded in a GLB (a PNG baseColorTexture).
+    let glb = colour_psnr("t.glb", None);
+    assert!(
+        (glb - textured).abs() < 0.5,
+        "GLB {glb:.1} dB, OBJ {textured:.1} dB"
+    );
     let at_vertices = colour_psnr("v.ply", None);
     assert!(
         textured > 30.0 && textured > at_vertices + 10.0,

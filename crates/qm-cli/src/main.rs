@@ -184,7 +184,9 @@ enum Command {
     Decompress {
         /// Input .qm file.
         input: PathBuf,
-        /// Output mesh, .obj or .ply (default: the input with extension .obj).
+        /// Output mesh, .obj, .ply or .glb (default: the input with extension
+        /// .obj); a texture is written beside an .obj (.mtl, .png) and into
+        /// a .glb.
         #[arg(short, long)]
         output: Option<PathBuf>,
         /// Use only the first N bytes, as if the rest never arrived.
@@ -723,10 +725,10 @@ fn decompress(
     let output = output.unwrap_or_else(|| default_output(input, "obj"));
     check_output(input, &output)?;
     match qm::io::Format::from_path(&output) {
-        Some(qm::io::Format::Obj | qm::io::Format::Ply) => {}
+        Some(qm::io::Format::Obj | qm::io::Format::Ply | qm::io::Format::Glb) => {}
         _ => {
             return Err(Failure::parameter(format!(
-                "{}: output must be .obj or .ply",
+                "{}: output must be .obj, .ply or .glb",
                 output.display()
             )));
         }

@@ -48,4 +48,4 @@ pub use levels::{DEFAULT_TOLERANCE_DB, Estimate, LevelChoice};
 pub use qm_ezw::{self, Contexts, Weighting};
 pub use qm_lift::ErrorKind;
 pub use qm_lift::{self, UpdateRule};
-pub use stream::{LevelMesh, PrefixRow, StreamDecoder, prefix_table, vertex_normals};
+pub use stream::{LevelMesh, PrefixRow, StreamDecoder, Textured, prefix_table, vertex_normals};

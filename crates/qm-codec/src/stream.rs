@@ -12,9 +12,12 @@
 //! (again when the layout grows). Every binding (the WebAssembly decoder,
 //! the command line, Python) wraps this one type.
 
+use std::collections::HashMap;
+
 use qm_lift::Coord;
 use qm_lift::glam::DVec3;
 
+use crate::atlas::Atlas;
 use crate::decode::{DecodeOptions, DecodeStatus, Decoder, level_index};
 use crate::levels::Estimate;
 use crate::{Error, Result};
@@ -454,6 +457,62 @@ impl<'a> LevelMesh<'a> {
     /// `a b c d` as `a b c` and `a c d`.
     pub fn triangles(&self) -> &'a [u32] {
         &self.index.triangles
+    }
+
+    /// For a file whose colours reached a finer level than this mesh's:
+    /// those colours as a texture atlas ([`Decoder::texture`]), made anew
+    /// on each call.
+    pub fn texture(&self) -> Option<Atlas> {
+        self.decoder.texture(self.status.level)
+    }
+
+    /// This mesh's triangles with `atlas`'s texture coordinates: a vertex
+    /// of several base quads is one vertex per quad, since each quad has
+    /// a tile of its own.
+    pub fn textured(&self, atlas: &Atlas) -> Textured {
+        let corners = atlas.corner_texcoords(self.decoder.layout().face_count(), self.level());
+        Textured::new(&self.index.quads, &corners)
+    }
+}
+
+/// A mesh's triangles over vertices that each have one texture coordinate
+/// ([`LevelMesh::textured`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+#[non_exhaustive]
+pub struct Textured {
+    /// For each vertex, the mesh vertex it is (positions, normals and
+    /// colours are that vertex's).
+    pub vertices: Vec<u32>,
+    /// For each vertex, its texture coordinates, `(0, 0)` at the image's
+    /// top-left corner.
+    pub texcoords: Vec<[f32; 2]>,
+    /// Triangle corners, three a triangle, in the order of
+    /// [`LevelMesh::triangles`].
+    pub triangles: Vec<u32>,
+}
+
+impl Textured {
+    /// The triangles of `quads` (each `a b c d` as `a b c` and `a c d`)
+    /// over one vertex per distinct pair of a quad corner's vertex and its
+    /// texture coordinates, `corners` four a quad in order.
+    pub fn new(quads: &[[u32; 4]], corners: &[[f32; 2]]) -> Self {
+        let mut index: HashMap<(u32, [u32; 2]), u32> = HashMap::new();
+        let mut out = Textured::default();
+        let mut corner = |vertex: u32, uv: [f32; 2]| {
+            let key = (vertex, uv.map(f32::to_bits));
+            *index.entry(key).or_insert_with(|| {
+                out.vertices.push(vertex);
+                out.texcoords.push(uv);
+                out.vertices.len() as u32 - 1
+            })
+        };
+        let mut triangles = Vec::with_capacity(6 * quads.len());
+        for (quad, uv) in quads.iter().zip(corners.chunks_exact(4)) {
+            let [a, b, c, d] = std::array::from_fn(|k| corner(quad[k], uv[k]));
+            triangles.extend_from_slice(&[a, b, c, a, c, d]);
+        }
+        out.triangles = triangles;
+        out
     }
 }
 

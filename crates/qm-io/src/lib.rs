@@ -378,6 +378,13 @@ pub fn write_atomic(
     Ok(())
 }
 
+/// Writes `bytes` to `path` whole or not at all ([`write_atomic`]); a
+/// failure names the file.
+pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), MeshError> {
+    write_atomic(path, |w| w.write_all(bytes))
+        .map_err(|e| MeshError::io(&path.display().to_string(), e))
+}
+
 /// The temporary files of [`write_atomic`]s in progress.
 static PENDING: std::sync::Mutex<Vec<std::path::PathBuf>> = std::sync::Mutex::new(Vec::new());
 

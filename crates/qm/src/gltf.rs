@@ -12,7 +12,8 @@
 
 use serde_json::{Value, json};
 
-use crate::{DecodeOptions, Decoder, LevelChoice, PrefixRow, Result, StreamDecoder};
+use crate::codec::{Atlas, Textured};
+use crate::{DecodeOptions, Decoded, Decoder, LevelChoice, PrefixRow, Result, StreamDecoder};
 
 /// The extension's name.
 pub const EXTENSION: &str = "QM_progressive_mesh";
@@ -149,29 +150,16 @@ fn build(qm: &[u8], options: &GltfOptions) -> Result<(Value, Vec<u8>, Glb)> {
     let mesh = fallback.mesh().expect("refined");
     let mut positions = Vec::new();
     mesh.positions_f32(&mut positions);
-    let mut normals = Vec::new();
-    crate::codec::vertex_normals(&positions, mesh.triangles(), &mut normals);
-
     let mut bin = Bin::default();
-    let position_view = bin.add(bytes_of_f32(&positions), Some(ARRAY_BUFFER));
-    let normal_view = bin.add(bytes_of_f32(&normals), Some(ARRAY_BUFFER));
-    let vertex_count = mesh.vertex_count();
-    let (index_bytes, index_type) = if vertex_count <= u16::MAX as usize {
-        let bytes = mesh
-            .triangles()
-            .iter()
-            .flat_map(|&i| (i as u16).to_le_bytes())
-            .collect();
-        (bytes, UNSIGNED_SHORT)
-    } else {
-        let bytes = mesh
-            .triangles()
-            .iter()
-            .flat_map(|&i| i.to_le_bytes())
-            .collect();
-        (bytes, UNSIGNED_INT)
-    };
-    let index_view = bin.add(index_bytes, Some(ELEMENT_ARRAY_BUFFER));
+    let mut document = json!({});
+    let mut primitive = add_primitive(
+        &mut bin,
+        &mut document,
+        &positions,
+        mesh.triangles(),
+        mesh.colours(),
+        None,
+    );
     let mut extension = json!({
         "byteLength": qm.len(),
         "streamStart": stream_start,
@@ -189,62 +177,10 @@ fn build(qm: &[u8], options: &GltfOptions) -> Result<(Value, Vec<u8>, Glb)> {
         Some(uri) => extension["uri"] = json!(uri),
         None => extension["bufferView"] = json!(bin.add(qm.to_vec(), None)),
     }
-    let (min, max) = bounds(&positions);
-    let mut attributes = json!({ "POSITION": 0, "NORMAL": 1 });
-    let mut accessors = vec![
-        json!({
-            "bufferView": position_view,
-            "componentType": FLOAT,
-            "count": vertex_count,
-            "type": "VEC3",
-            "min": min,
-            "max": max,
-        }),
-        json!({ "bufferView": normal_view, "componentType": FLOAT, "count": vertex_count, "type": "VEC3" }),
-        json!({
-            "bufferView": index_view,
-            "componentType": index_type,
-            "count": mesh.triangles().len(),
-            "type": "SCALAR",
-        }),
-    ];
-    if let Some(colours) = mesh.colours() {
-        // glTF's COLOR_0 is linear: the decoded sRGB colours converted.
-        let linear: Vec<f32> = colours
-            .iter()
-            .flatten()
-            .map(|&c| srgb_to_linear(c))
-            .collect();
-        let view = bin.add(bytes_of_f32(&linear), Some(ARRAY_BUFFER));
-        attributes["COLOR_0"] = json!(accessors.len());
-        accessors.push(json!({
-            "bufferView": view,
-            "componentType": FLOAT,
-            "count": vertex_count,
-            "type": "VEC3",
-        }));
-    }
-    let document = json!({
-        "asset": {
-            "version": "2.0",
-            "generator": concat!("qm ", env!("CARGO_PKG_VERSION")),
-        },
-        "extensionsUsed": [EXTENSION],
-        "scene": 0,
-        "scenes": [{ "nodes": [0] }],
-        "nodes": [{ "mesh": 0 }],
-        "meshes": [{
-            "primitives": [{
-                "attributes": attributes,
-                "indices": 2,
-                "mode": 4,
-                "extensions": { EXTENSION: extension },
-            }],
-        }],
-        "accessors": accessors,
-        "bufferViews": bin.views,
-        "buffers": [{ "byteLength": bin.data.len() }],
-    });
+    primitive["extensions"] = json!({ EXTENSION: extension });
+    let vertex_count = mesh.vertex_count();
+    finish_document(&mut document, primitive, &bin);
+    document["extensionsUsed"] = json!([EXTENSION]);
     let glb = Glb {
         bytes: Vec::new(),
         fallback_bytes: prefix,
@@ -256,6 +192,159 @@ fn build(qm: &[u8], options: &GltfOptions) -> Result<(Value, Vec<u8>, Glb)> {
         levels,
     };
     Ok((document, bin.data, glb))
+}
+
+/// A decode as a plain glTF 2.0 binary: its mesh as one triangle
+/// primitive with normals, and its look: with a [`Decoded::texture`], the
+/// texture as an embedded PNG `baseColorTexture` over `TEXCOORD_0` (a
+/// vertex of several base quads split, one a quad); otherwise its colours
+/// as a linear `COLOR_0`.
+pub fn decoded_glb(decoded: &Decoded) -> Vec<u8> {
+    let (positions, quads) = decoded.raw.level_mesh();
+    let positions: Vec<f32> = (positions.iter())
+        .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
+        .collect();
+    let triangles: Vec<u32> = (quads.iter())
+        .flat_map(|&[a, b, c, d]| [a, b, c, a, c, d])
+        .collect();
+    let textured = (decoded.texture().zip(decoded.corner_texcoords()))
+        .map(|(atlas, corners)| (atlas, Textured::new(&quads, &corners)));
+    let mut bin = Bin::default();
+    let mut document = json!({});
+    let primitive = add_primitive(
+        &mut bin,
+        &mut document,
+        &positions,
+        &triangles,
+        decoded.colours(),
+        textured.as_ref().map(|(a, t)| (*a, t)),
+    );
+    finish_document(&mut document, primitive, &bin);
+    glb_container(&document, &bin.data)
+}
+
+/// Adds to `bin` and `document` the accessors of one triangle primitive
+/// over `positions` (`x, y, z`) and `triangles`, with area-weighted
+/// normals and either `colours` as a linear `COLOR_0` or, given a texture
+/// and its split vertices, `TEXCOORD_0` and a material that shows the
+/// texture (embedded as PNG); returns the primitive.
+fn add_primitive(
+    bin: &mut Bin,
+    document: &mut Value,
+    positions: &[f32],
+    triangles: &[u32],
+    colours: Option<&[[u8; 3]]>,
+    texture: Option<(&Atlas, &Textured)>,
+) -> Value {
+    let mut normals = Vec::new();
+    crate::codec::vertex_normals(positions, triangles, &mut normals);
+    let (positions, normals, triangles) = match texture {
+        Some((_, t)) => {
+            let gather = |values: &[f32]| -> Vec<f32> {
+                (t.vertices.iter())
+                    .flat_map(|&v| values[3 * v as usize..3 * v as usize + 3].to_vec())
+                    .collect()
+            };
+            (gather(positions), gather(&normals), &t.triangles[..])
+        }
+        None => (positions.to_vec(), normals, triangles),
+    };
+    let vertex_count = positions.len() / 3;
+    let mut accessors = Vec::new();
+    let mut accessor = |bin: &mut Bin, bytes: Vec<u8>, target, fields: Value| {
+        let mut a = json!({ "bufferView": bin.add(bytes, target) });
+        a.as_object_mut()
+            .expect("an object")
+            .extend(fields.as_object().expect("an object").clone());
+        accessors.push(a);
+        accessors.len() - 1
+    };
+    let (min, max) = bounds(&positions);
+    let position = accessor(
+        bin,
+        bytes_of_f32(&positions),
+        Some(ARRAY_BUFFER),
+        json!({ "componentType": FLOAT, "count": vertex_count, "type": "VEC3", "min": min, "max": max }),
+    );
+    let normal = accessor(
+        bin,
+        bytes_of_f32(&normals),
+        Some(ARRAY_BUFFER),
+        json!({ "componentType": FLOAT, "count": vertex_count, "type": "VEC3" }),
+    );
+    let (index_bytes, index_type) = if vertex_count <= u16::MAX as usize {
+        let bytes = (triangles.iter())
+            .flat_map(|&i| (i as u16).to_le_bytes())
+            .collect();
+        (bytes, UNSIGNED_SHORT)
+    } else {
+        let bytes = triangles.iter().flat_map(|&i| i.to_le_bytes()).collect();
+        (bytes, UNSIGNED_INT)
+    };
+    let indices = accessor(
+        bin,
+        index_bytes,
+        Some(ELEMENT_ARRAY_BUFFER),
+        json!({ "componentType": index_type, "count": triangles.len(), "type": "SCALAR" }),
+    );
+    let mut attributes = json!({ "POSITION": position, "NORMAL": normal });
+    let mut primitive = json!({ "indices": indices, "mode": 4 });
+    match (texture, colours) {
+        (Some((atlas, t)), _) => {
+            let uv: Vec<f32> = t.texcoords.iter().flatten().copied().collect();
+            attributes["TEXCOORD_0"] = json!(accessor(
+                bin,
+                bytes_of_f32(&uv),
+                Some(ARRAY_BUFFER),
+                json!({ "componentType": FLOAT, "count": vertex_count, "type": "VEC2" }),
+            ));
+            let png = qm_io::png_bytes(atlas.width, atlas.height, &atlas.texels);
+            document["images"] =
+                json!([{ "bufferView": bin.add(png, None), "mimeType": "image/png" }]);
+            // Linear filtering, mipmaps, and edges clamped (the gutters).
+            document["samplers"] =
+                json!([{ "magFilter": 9729, "minFilter": 9987, "wrapS": 33071, "wrapT": 33071 }]);
+            document["textures"] = json!([{ "sampler": 0, "source": 0 }]);
+            document["materials"] = json!([{
+                "pbrMetallicRoughness": {
+                    "baseColorTexture": { "index": 0 },
+                    "metallicFactor": 0.0,
+                    "roughnessFactor": 1.0,
+                },
+            }]);
+            primitive["material"] = json!(0);
+        }
+        (None, Some(colours)) => {
+            // glTF's COLOR_0 is linear: the decoded sRGB colours converted.
+            let linear: Vec<f32> = (colours.iter().flatten())
+                .map(|&c| srgb_to_linear(c))
+                .collect();
+            attributes["COLOR_0"] = json!(accessor(
+                bin,
+                bytes_of_f32(&linear),
+                Some(ARRAY_BUFFER),
+                json!({ "componentType": FLOAT, "count": vertex_count, "type": "VEC3" }),
+            ));
+        }
+        (None, None) => {}
+    }
+    primitive["attributes"] = attributes;
+    document["accessors"] = json!(accessors);
+    primitive
+}
+
+/// Completes `document` around its one mesh of `primitive`, over `bin`.
+fn finish_document(document: &mut Value, primitive: Value, bin: &Bin) {
+    document["asset"] = json!({
+        "version": "2.0",
+        "generator": concat!("qm ", env!("CARGO_PKG_VERSION")),
+    });
+    document["scene"] = json!(0);
+    document["scenes"] = json!([{ "nodes": [0] }]);
+    document["nodes"] = json!([{ "mesh": 0 }]);
+    document["meshes"] = json!([{ "primitives": [primitive] }]);
+    document["bufferViews"] = json!(bin.views);
+    document["buffers"] = json!([{ "byteLength": bin.data.len() }]);
 }
 
 const FLOAT: u32 = 5126;

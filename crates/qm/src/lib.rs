@@ -308,14 +308,19 @@ impl Decoded {
     }
 }
 
-/// Writes a decode with its look, atomically: with a
-/// [`Decoded::texture`], OBJ with a material library and a PNG image
-/// beside it ([`io::textured_files`]; PLY gets the colours at the
-/// vertices); with colours, one a vertex ([`write_coloured_mesh`]);
-/// otherwise the mesh alone.
+/// Writes a decode with its look, atomically, by the path's extension:
+/// GLB as [`gltf::decoded_glb`] makes it; OBJ with a [`Decoded::texture`]
+/// with a material library and a PNG image beside it
+/// ([`io::textured_files`]); PLY, or OBJ without a texture, with the
+/// colours at the vertices where there are colours
+/// ([`write_coloured_mesh`]); otherwise the mesh alone.
 pub fn write_decoded(path: impl AsRef<Path>, decoded: &Decoded) -> Result<()> {
     let path = path.as_ref();
-    let obj = qm_io::Format::from_path(path) == Some(qm_io::Format::Obj);
+    let format = qm_io::Format::from_path(path);
+    if format == Some(qm_io::Format::Glb) {
+        return Ok(qm_io::write_bytes(path, &gltf::decoded_glb(decoded))?);
+    }
+    let obj = format == Some(qm_io::Format::Obj);
     match (
         decoded.texture(),
         decoded.corner_texcoords(),

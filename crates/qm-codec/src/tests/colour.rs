@@ -242,3 +242,39 @@ fn colours_finer_than_the_geometry_come_back_as_a_texture() {
     assert_eq!(d.header.flags & FINER_COLOUR, 0);
     assert!(d.texture.is_none());
 }
+
+/// A stream decoder's mesh gives the texture too, and its textured
+/// triangles are its own triangles over vertices split where base quads
+/// meet: one vertex per mesh vertex and base quad.
+#[test]
+fn a_stream_decoders_mesh_is_textured_over_split_vertices() {
+    let mesh = sphere(2);
+    let rgb = colours(&sphere(4));
+    let c = compress_coloured(&mesh, &rgb, &EncodeOptions::DEFAULT, None).unwrap();
+    for level in [0, 1, 2] {
+        let options = DecodeOptions::DEFAULT.with_level(LevelChoice::Fixed(level));
+        let mut decoder = crate::StreamDecoder::new(options);
+        decoder.push(&c.bytes).unwrap();
+        decoder.refine().unwrap();
+        let m = decoder.mesh().unwrap();
+        let atlas = m.texture().expect("colour finer than the mesh");
+        assert_eq!(atlas.level, 4);
+        let t = m.textured(&atlas);
+        assert_eq!(t.texcoords.len(), t.vertices.len());
+        let own: Vec<u32> = t
+            .triangles
+            .iter()
+            .map(|&k| t.vertices[k as usize])
+            .collect();
+        assert_eq!(own, m.triangles(), "level {level}");
+        let faces = decoder.decoder().unwrap().layout().face_count();
+        let mut pairs = std::collections::HashSet::new();
+        let per_face = m.quads().len() / faces;
+        for (q, quad) in m.quads().iter().enumerate() {
+            for &v in quad {
+                pairs.insert((v, q / per_face));
+            }
+        }
+        assert_eq!(t.vertices.len(), pairs.len(), "level {level}");
+    }
+}
