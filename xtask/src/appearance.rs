@@ -11,7 +11,7 @@
 //! decoded at the level the bytes support). One markdown row per asset.
 
 use qm::param::distance::{DistanceOptions, distance};
-use qm::{Asset, AssetOptions, DecodeOptions, Options};
+use qm::{AssetOptions, DecodeOptions, Options};
 
 /// The geometric PSNR whose prefix the colour is measured at.
 const TARGET_DB: f64 = 65.0;
@@ -62,21 +62,10 @@ fn row(file: &str, options: &DistanceOptions) -> Result<(), String> {
     let measure = |n: usize| -> Result<(f64, f64), String> {
         let decoded = qm::decode(&bytes[..n], &DecodeOptions::default()).map_err(text)?;
         let geometry = distance(&input.mesh, &decoded.mesh, options).map_err(|e| e.to_string())?;
-        let colour = match decoded.colours() {
-            Some(colours) => {
-                let mut asset = Asset::default();
-                asset.mesh = decoded.mesh.clone();
-                asset.colors = Some(
-                    (colours.iter())
-                        .map(|c| [c[0], c[1], c[2], 255].map(|x| x as f32 / 255.0))
-                        .collect(),
-                );
-                qm::param::colour_distance(&input, &asset, options)
-                    .map_err(|e| e.to_string())?
-                    .map_or(f64::NAN, |r| r.psnr_db)
-            }
-            None => f64::NAN,
-        };
+        // The decode's look: its texture, or its colours at the vertices.
+        let colour = qm::param::colour_distance(&input, &decoded.to_asset(), options)
+            .map_err(|e| e.to_string())?
+            .map_or(f64::NAN, |r| r.psnr_db);
         Ok((geometry.psnr_db, colour))
     };
     let whole = measure(bytes.len())?;

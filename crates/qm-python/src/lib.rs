@@ -13,8 +13,8 @@ mod errors;
 
 use std::sync::{Mutex, MutexGuard};
 
-use numpy::ndarray::Array2;
-use numpy::{IntoPyArray, PyArray2, PyArrayMethods, PyReadonlyArray2};
+use numpy::ndarray::{Array2, Array3};
+use numpy::{IntoPyArray, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyString};
 
@@ -93,6 +93,28 @@ fn rows<'py, T: numpy::Element>(
     Array2::from_shape_vec((n, k), flat)
         .expect("a whole number of rows")
         .into_pyarray(py)
+}
+
+/// A texture atlas and its quads' corner coordinates as numpy arrays:
+/// `(h, w, 3)` uint8 and `(m, 4, 2)` float32.
+type TextureArrays = (Py<PyArray3<u8>>, Py<PyArray3<f32>>);
+
+/// [`TextureArrays`] of `atlas` and `corners` (four a quad).
+fn texture_arrays(
+    py: Python<'_>,
+    atlas: &qm::codec::Atlas,
+    corners: Vec<[f32; 2]>,
+) -> TextureArrays {
+    let (w, h) = (atlas.width as usize, atlas.height as usize);
+    let image = Array3::from_shape_vec((h, w, 3), atlas.texels.as_flattened().to_vec())
+        .expect("width x height texels");
+    let quads = corners.len() / 4;
+    let uv = Array3::from_shape_vec((quads, 4, 2), corners.as_flattened().to_vec())
+        .expect("four corners a quad");
+    (
+        image.into_pyarray(py).unbind(),
+        uv.into_pyarray(py).unbind(),
+    )
 }
 
 /// The faces of a mesh as a numpy array: `(m, k)` when every face has `k`
@@ -212,6 +234,13 @@ struct Decoded {
     /// For a file with colours: one 8-bit sRGB colour per vertex, uint8,
     /// shape (n, 3); None for a file without.
     colors: Option<Py<PyArray2<u8>>>,
+    /// For a file whose colours reached a finer level than the mesh: those
+    /// colours as a texture atlas, 8-bit sRGB, uint8, shape (h, w, 3), rows
+    /// from the top; else None.
+    texture: Option<Py<PyArray3<u8>>>,
+    /// With a texture: each quad corner's texture coordinates, (0, 0) at
+    /// the image's top-left corner, float32, shape (m, 4, 2); else None.
+    face_uvs: Option<Py<PyArray3<f32>>>,
     /// The subdivision level of the mesh (0 is the base mesh).
     level: u32,
     /// The file's finest level.
@@ -342,10 +371,15 @@ fn decode(py: Python<'_>, data: &[u8], options: &Decoding) -> PyResult<Decoded> 
             Ok::<_, qm::Error>((d, flat, quads, colours))
         })
         .map_err(to_py)?;
+    let texture = (decoded.texture().zip(decoded.corner_texcoords()))
+        .map(|(atlas, corners)| texture_arrays(py, atlas, corners));
+    let (texture, face_uvs) = texture.unzip();
     Ok(Decoded {
         vertices: rows(py, flat, 3).unbind(),
         faces: rows(py, quads, 4).unbind(),
         colors: colours.map(|c| rows(py, c, 3).unbind()),
+        texture,
+        face_uvs,
         level: decoded.level(),
         finest_level: u32::from(decoded.raw.header.level),
         passes: decoded.passes(),
@@ -548,12 +582,21 @@ impl StreamDecoder {
             .decoder()
             .map_or(0, |d| u32::from(d.header().passes));
         let flat: Vec<u32> = m.quads().iter().flatten().copied().collect();
+        let faces = decoder.decoder().map_or(0, |d| d.layout().face_count());
+        let (texture, face_uvs) = (m.texture())
+            .map(|atlas| {
+                let corners = atlas.corner_texcoords(faces, m.level());
+                texture_arrays(py, &atlas, corners)
+            })
+            .unzip();
         Some(Decoded {
             vertices: positions_array(py, &m.positions()).unbind(),
             faces: rows(py, flat, 4).unbind(),
             colors: m
                 .colours()
                 .map(|c| rows(py, c.as_flattened().to_vec(), 3).unbind()),
+            texture,
+            face_uvs,
             level: m.level(),
             finest_level: decoder.finest_level(),
             passes: m.passes(),

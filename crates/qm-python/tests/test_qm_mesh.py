@@ -5,12 +5,15 @@ import json
 import subprocess
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import qm_mesh
 from qm_mesh import DataError, FileError, LimitError, ParameterError, QmError, TruncatedError
+
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def same(a, b):
@@ -201,6 +204,31 @@ def test_colours_come_with_every_prefix_and_exactly_at_the_end(coloured_qm, cube
     assert errors[0] > 1 and errors[-1] == 0, f"mean colour error by prefix: {errors}"
     # A file without colours has none.
     assert qm_mesh.decode(cube_qm).colors is None
+
+
+def test_a_texture_finer_than_the_mesh_comes_with_its_coordinates(cube_qm):
+    # A textured cube: its texture's colours five levels finer than its
+    # level-0 geometry (`qm compress` of a cube OBJ under a wave texture).
+    data = (ROOT / "tests" / "data" / "textured_cube.qm").read_bytes()
+    d = qm_mesh.decode(data)
+    h, w, c = d.texture.shape
+    assert d.texture.dtype == np.uint8 and c == 3
+    assert d.face_uvs.dtype == np.float32 and d.face_uvs.shape == (len(d.faces), 4, 2)
+    # Every corner sits on a texel centre inside the image, and each quad's
+    # corners on distinct texels.
+    texel = d.face_uvs * np.array([w, h], dtype=np.float32) - 0.5
+    assert np.allclose(texel, np.round(texel), atol=1e-2)
+    assert (texel > 0).all() and (texel < [w - 1, h - 1]).all()
+    assert all(len({tuple(p) for p in np.round(q)}) == 4 for q in texel)
+    # The streaming decoder gives the same; a prefix a texture no larger.
+    stream = qm_mesh.StreamDecoder()
+    stream.feed(data)
+    m = stream.mesh()
+    assert np.array_equal(m.texture, d.texture) and np.array_equal(m.face_uvs, d.face_uvs)
+    cut = qm_mesh.decode(data[: len(data) // 3])
+    assert cut.texture is None or cut.texture.size <= d.texture.size
+    # A file without finer colours has none.
+    assert qm_mesh.decode(cube_qm).texture is None and qm_mesh.decode(cube_qm).face_uvs is None
 
 
 def test_a_streaming_goal_stops_wanting_bytes(spot_qm):

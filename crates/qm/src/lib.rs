@@ -308,6 +308,49 @@ impl Decoded {
     }
 }
 
+impl Decoded {
+    /// This decode as an asset, with its look: with a [`Decoded::texture`],
+    /// texture coordinates at every face corner and one material whose
+    /// base colour texture is the atlas (decoded, no file behind it);
+    /// otherwise its colours at the vertices, if any. What `qm distance`
+    /// compares a decode's colours with.
+    pub fn to_asset(&self) -> Asset {
+        let mut asset = Asset::default();
+        asset.mesh = self.mesh.clone();
+        if let (Some(atlas), Some(corners)) = (self.texture(), self.corner_texcoords()) {
+            let rgba = (atlas.texels.iter())
+                .flat_map(|&[r, g, b]| [r, g, b, 255])
+                .collect();
+            asset.tex_coords = Some(io::TexCoords {
+                corners: (0..corners.len() as u32).collect(),
+                values: corners,
+            });
+            asset.materials = vec![io::Material {
+                name: "qm".into(),
+                base_color: [1.0; 4],
+                base_color_texture: Some(io::Texture {
+                    source: io::ImageSource::Embedded {
+                        mime_type: None,
+                        bytes: Vec::new(),
+                    },
+                    image: Some(io::Image {
+                        width: atlas.width,
+                        height: atlas.height,
+                        rgba,
+                    }),
+                }),
+            }];
+        } else if let Some(colours) = self.colours() {
+            asset.colors = Some(
+                (colours.iter())
+                    .map(|c| [c[0], c[1], c[2], 255].map(|x| f32::from(x) / 255.0))
+                    .collect(),
+            );
+        }
+        asset
+    }
+}
+
 /// Writes a decode with its look, atomically, by the path's extension:
 /// GLB as [`gltf::decoded_glb`] makes it; OBJ with a [`Decoded::texture`]
 /// with a material library and a PNG image beside it
@@ -516,6 +559,35 @@ mod tests {
             messages.push(text);
             next = inner.source();
         }
+    }
+
+    /// A textured decode as an asset looks as its written files do.
+    #[test]
+    fn a_textured_decode_is_an_asset_with_its_texture() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../tests/data/textured_cube.qm"
+        );
+        let decoded = decode(&std::fs::read(path).unwrap(), &DecodeOptions::default()).unwrap();
+        let asset = decoded.to_asset();
+        assert!(decoded.texture().is_some() && asset.tex_coords.is_some());
+        assert!(param::colour::texels(&asset) > 0.0);
+        let dir = tempfile::tempdir().unwrap();
+        for name in ["t.obj", "t.glb"] {
+            write_decoded(dir.path().join(name), &decoded).unwrap();
+            let options = AssetOptions::DEFAULT.with_images(true);
+            let written = read_asset(dir.path().join(name), &options).unwrap();
+            let options = param::distance::DistanceOptions::DEFAULT.with_samples(20_000);
+            let report = param::colour_distance(&asset, &written, &options)
+                .unwrap()
+                .unwrap();
+            assert!(report.psnr_db > 50.0, "{name}: {}", report.psnr_db);
+        }
+        let plain = decode(
+            &encode(&asset.mesh, &Options::default()).unwrap().bytes,
+            &DecodeOptions::default(),
+        );
+        assert!(plain.unwrap().to_asset().materials.is_empty());
     }
 
     #[test]

@@ -251,7 +251,10 @@ def decode(
     Returns a :class:`Decoded`: ``vertices`` (float64, ``(n, 3)``),
     ``faces`` (uint32 quads, ``(m, 4)``), ``colors`` (for a file with
     colours, 8-bit sRGB per vertex, uint8 ``(n, 3)``; else None),
-    ``triangles``, ``level``,
+    ``texture`` and ``face_uvs`` (for a file whose colours reached a finer
+    level than the mesh: the texture atlas, uint8 ``(h, w, 3)``, and each
+    quad corner's coordinates, float32 ``(m, 4, 2)``, ``(0, 0)`` at the
+    image's top-left; else None), ``triangles``, ``level``,
     ``passes``, ``truncated``, ``error`` and ``psnr_db`` (the decoder's
     estimate). Raises :class:`TruncatedError` for bytes that end inside the
     header or base mesh, :class:`DataError` for bytes that are not ``.qm``

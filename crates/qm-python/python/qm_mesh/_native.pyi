@@ -28,6 +28,14 @@ class Decoded:
     def colors(self) -> Optional[npt.NDArray[np.uint8]]:
         """For a file with colours: 8-bit sRGB per vertex, uint8, shape (n, 3); else None."""
     @property
+    def texture(self) -> Optional[npt.NDArray[np.uint8]]:
+        """For a file whose colours reached a finer level than the mesh: those colours as a
+        texture atlas, 8-bit sRGB, uint8, shape (h, w, 3), rows from the top; else None."""
+    @property
+    def face_uvs(self) -> Optional[npt.NDArray[np.float32]]:
+        """With a texture: each quad corner's texture coordinates, (0, 0) at the image's
+        top-left corner, float32, shape (m, 4, 2); else None."""
+    @property
     def triangles(self) -> npt.NDArray[np.uint32]:
         """The quads split along their first diagonal, uint32, shape (2m, 3)."""
     @property
