@@ -348,6 +348,15 @@ fn random_corruptions_of_a_coloured_file_never_panic() {
     never_panics(&valid_coloured_qm());
 }
 
+/// As [`random_corruptions_never_panic_the_library`], with colours finer
+/// than the geometry (the textured cube of `tests/data`): what decodes
+/// with a texture has a whole atlas and coordinates inside it.
+#[test]
+fn random_corruptions_of_a_textured_file_never_panic() {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/textured_cube.qm");
+    never_panics(&std::fs::read(path).unwrap());
+}
+
 /// 1,000 corruptions of `valid` decode or fail with a one-line error, never
 /// a panic, each within 5 s.
 fn never_panics(valid: &[u8]) {
@@ -364,6 +373,13 @@ fn never_panics(valid: &[u8]) {
                 ok += 1;
                 if let Some(colours) = &d.colours {
                     assert_eq!(colours.len(), d.level_mesh().0.len(), "seed {seed}");
+                }
+                if let Some(atlas) = &d.texture {
+                    let texels = atlas.width as usize * atlas.height as usize;
+                    assert_eq!(atlas.texels.len(), texels, "seed {seed}");
+                    let corners = atlas.corner_texcoords(d.layout.face_count(), d.level);
+                    assert_eq!(corners.len(), 4 * d.level_mesh().1.len(), "seed {seed}");
+                    assert!(corners.iter().flatten().all(|&x| (0.0..1.0).contains(&x)));
                 }
             }
             Ok(Err(e)) => {
