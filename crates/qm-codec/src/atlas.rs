@@ -65,8 +65,17 @@ impl Atlas {
     /// `level` (at most the atlas's): `(0, 0)` at the image's top-left
     /// corner, `(1, 1)` at its bottom-right, as glTF has them (OBJ's `vt`
     /// is `(u, 1 - v)`).
+    ///
+    /// # Panics
+    ///
+    /// If `level` is finer than the atlas's.
     pub fn texcoord(&self, face: usize, level: u32, i: u32, j: u32) -> [f32; 2] {
-        let s = 1u32 << (self.level - level.min(self.level));
+        assert!(
+            level <= self.level,
+            "level {level} above the atlas's {}",
+            self.level
+        );
+        let s = 1u32 << (self.level - level);
         let tile = (1u32 << self.level) + 1 + 2 * GUTTER;
         let (c, r) = (face as u32 % self.columns, face as u32 / self.columns);
         let x = c * tile + GUTTER + i * s;
@@ -79,7 +88,7 @@ impl Atlas {
 
     /// The texture coordinates of the corners of the mesh of `faces` base
     /// quads at `level`, four a quad in the order of
-    /// [`qm_lift::Layout::quads`].
+    /// [`qm_lift::Layout::quads`]. Panics as [`Self::texcoord`] does.
     pub fn corner_texcoords(&self, faces: usize, level: u32) -> Vec<[f32; 2]> {
         let cells = 1u32 << level;
         let mut out = Vec::with_capacity(faces * (cells * cells * 4) as usize);

@@ -386,14 +386,18 @@ impl Decoder {
         self.colour.as_ref().map(|c| &c.colours[..])
     }
 
-    /// For a file whose colours are finer than the mesh of the last decode
-    /// at `level`: those colours as a texture atlas
-    /// ([`crate::atlas::Atlas`]), at the finest colour level the colour
-    /// stream reached, at most the file's colour level. `None` without
-    /// colours, before the first decode, or where the colours reached no
-    /// finer level than `level` (the vertices' colours carry them all).
+    /// For a file whose colours are finer than its geometry
+    /// ([`container::FINER_COLOUR`]): the colours of the last decode as a
+    /// texture atlas ([`crate::atlas::Atlas`]) for its mesh at `level`, at
+    /// the finest colour level the colour stream reached, at most the
+    /// file's colour level. `None` for other files, before the first
+    /// decode, or where the colours reached no finer level than `level`
+    /// (the vertices' colours carry them all).
     pub fn texture(&self, level: u32) -> Option<Atlas> {
         let colour = self.colour.as_ref()?;
+        if colour.header.finer == 0 {
+            return None;
+        }
         let decoded = colour.decoded.as_ref()?;
         let finest = container::colour_level(&self.header);
         let top = top_level(&colour.tree, decoded).min(finest);

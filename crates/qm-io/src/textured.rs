@@ -35,7 +35,8 @@ pub fn textured_files(path: &Path) -> [PathBuf; 3] {
 }
 
 /// Writes `mesh` with `texture` as OBJ (`vt` lines, one a distinct
-/// coordinate, and `f v/vt` corners), a material library naming the
+/// coordinate, and each face fanned into `f v/vt` triangles from its first
+/// corner, the diagonal a qm texture is sampled on), a material library naming the
 /// image as `map_Kd`, and the image as PNG ([`textured_files`]); each file
 /// is written whole or not at all, the image first and the mesh last.
 /// Fails, naming the file, for another format than OBJ, a texel count
@@ -133,20 +134,28 @@ fn write_obj(
         corner_vt.push(k);
     }
     w.write_all(b"usemtl qm\n")?;
-    let mut corner = 0;
+    // Triangles, each face fanned from its first corner: the diagonal the
+    // texture was sampled on, whatever an importer would choose for a quad.
+    let mut first = 0;
     for face in mesh.faces() {
-        w.write_all(b"f")?;
-        for &vertex in face {
-            write!(w, " {}/{}", u64::from(vertex) + 1, corner_vt[corner])?;
-            corner += 1;
+        for k in 1..face.len().saturating_sub(1) {
+            w.write_all(b"f")?;
+            for c in [0, k, k + 1] {
+                write!(w, " {}/{}", u64::from(face[c]) + 1, corner_vt[first + c])?;
+            }
+            w.write_all(b"\n")?;
         }
-        w.write_all(b"\n")?;
+        first += face.len();
     }
     Ok(())
 }
 
 /// An image of `width * height` 8-bit sRGB texels, rows from the top, as
 /// PNG bytes.
+///
+/// # Panics
+///
+/// If `texels` is not `width * height` long or either side is 0.
 pub fn png_bytes(width: u32, height: u32, texels: &[[u8; 3]]) -> Vec<u8> {
     use image::ImageEncoder;
     let mut out = Vec::new();
@@ -186,9 +195,13 @@ mod tests {
         write_textured_mesh(&path, &mesh, &texture).unwrap();
         let asset = read_asset(&path, &AssetOptions::DEFAULT.with_images(true)).unwrap();
         assert_eq!(asset.mesh.positions, mesh.positions);
+        // Two triangles along the diagonal from the first corner.
+        let faces: Vec<&[u32]> = asset.mesh.faces().collect();
+        assert_eq!(faces, [&[0, 1, 2][..], &[0, 2, 3][..]]);
         let uv = asset.tex_coords.unwrap();
-        let back: Vec<[f32; 2]> = (0..4).map(|c| uv.get(c).unwrap()).collect();
-        assert_eq!(back, corners);
+        let back: Vec<[f32; 2]> = (0..6).map(|c| uv.get(c).unwrap()).collect();
+        let fanned = [0, 1, 2, 0, 2, 3].map(|c| corners[c]);
+        assert_eq!(back, fanned);
         let image = asset.materials[0]
             .base_color_texture
             .as_ref()

@@ -213,29 +213,42 @@ pub fn encode_prepared_asset(
     encode_with(prepared, &asset.mesh, Some(&colours), options)
 }
 
-/// Most colour samples that a texture's detail earns beyond the geometry's
-/// (docs/appearance.md, "Texture detail").
+/// Most colour samples, in all, that a texture's detail earns at levels
+/// finer than the geometry's (docs/appearance.md, "Texture detail").
 pub const MAX_COLOUR_SAMPLES: u64 = 1 << 22;
 
 /// The levels of colour beyond `layout`'s that a surface showing `texels`
 /// texture texels ([`param::ColourSurface::texels`]) earns: the finest
 /// level with no more samples than texels (none where the geometry's
 /// samples are as many), at most [`codec::container::MAX_FINER_COLOUR`]
-/// levels and [`MAX_COLOUR_SAMPLES`] samples.
+/// levels and [`MAX_COLOUR_SAMPLES`] colour samples, and no further than a
+/// decoder's memory estimate of the file allows within
+/// [`FINER_COLOUR_DECODE_MEMORY`].
 pub fn finer_colour_levels(texels: f64, layout: &codec::qm_lift::Layout) -> u32 {
     let base = layout.base();
-    let samples = |finer: u32| base.sample_count(layout.level() + finer) as f64;
+    let level = layout.level();
+    let samples = |finer: u32| base.sample_count(level + finer) as f64;
+    let (vertices, faces) = (base.vertex_count(), base.faces().len() as u32);
+    let memory = |finer: u32| {
+        codec::container::decode_memory_of(vertices, faces, level, Some(level + finer))
+    };
     let most = codec::container::MAX_FINER_COLOUR as u32;
     let mut finer = 0;
     while finer < most
         && samples(finer + 1) <= MAX_COLOUR_SAMPLES as f64
         && samples(finer + 1) <= texels
-        && codec::qm_lift::Layout::check(base, layout.level() + finer + 1).is_ok()
+        && memory(finer + 1) <= FINER_COLOUR_DECODE_MEMORY
+        && codec::qm_lift::Layout::check(base, level + finer + 1).is_ok()
     {
         finer += 1;
     }
     finer
 }
+
+/// The most memory a decoder's estimate of a file may reach for its colour
+/// to go finer than its geometry: 512 MiB, the browser decoder's limit (so
+/// that every qm decoder with its default limit takes the file).
+pub const FINER_COLOUR_DECODE_MEMORY: u64 = 512 << 20;
 
 /// A decoded `.qm` stream or prefix of one.
 #[derive(Clone, Debug)]

@@ -362,9 +362,11 @@ pub struct Limits {
 /// peaks of `qm decompress` stay below it (`docs/hostile-input.md`).
 pub const DECODE_BYTES_PER_SAMPLE: u64 = 160;
 
-/// Bytes per sample a decoder of a file with colours holds beside
-/// [`DECODE_BYTES_PER_SAMPLE`]: the colour values, tree and coder state,
-/// and the output colours.
+/// Bytes a decoder of a file with colours holds per sample of the colour
+/// (at the geometry's level, or finer): the colour's layout, values, tree
+/// and coder state, the output colours, and the texture of colour finer
+/// than the mesh (measured: about 52 bytes a sample of valve-index's
+/// finer colour, docs/appearance.md).
 pub const COLOUR_BYTES_PER_SAMPLE: u64 = 64;
 
 /// Bytes per base vertex and per base face a decoder holds, at most (the
@@ -426,26 +428,39 @@ pub fn colour_level(h: &Header) -> u32 {
 
 /// [`sample_count`] of the layout at `level` over `h`'s base.
 fn samples_at(h: &Header, level: u32) -> u64 {
+    sample_bound(h.base_vertices, h.base_faces, level)
+}
+
+/// An upper bound of the samples of a layout at `level` over a base of
+/// `vertices` and `faces` (shared edges counted twice).
+pub fn sample_bound(vertices: u32, faces: u32, level: u32) -> u64 {
     // Saturating: callers may ask before the level is checked.
     let m = (1u64 << level.min(63)) - 1;
     let per_face = m.saturating_mul(m).saturating_add(m.saturating_mul(4));
-    let faces = h.base_faces as u64;
-    (h.base_vertices as u64).saturating_add(faces.saturating_mul(per_face))
+    (vertices as u64).saturating_add((faces as u64).saturating_mul(per_face))
 }
 
-/// Bytes a decoder of the stream that `h` describes holds at most, by
-/// [`DECODE_BYTES_PER_SAMPLE`] and [`DECODE_BYTES_PER_BASE_ELEMENT`].
+/// Bytes a decoder of the stream that `h` describes holds at most
+/// ([`decode_memory_of`]).
 pub fn decode_memory(h: &Header) -> u64 {
-    let base = h.base_vertices as u64 + h.base_faces as u64;
-    let per_sample = DECODE_BYTES_PER_SAMPLE
-        + if h.colour.is_some() {
-            COLOUR_BYTES_PER_SAMPLE
-        } else {
-            0
-        };
-    // Finer colour makes the decoder's layout that fine.
-    samples_at(h, colour_level(h))
-        .saturating_mul(per_sample)
+    let colour = h.colour.as_ref().map(|_| colour_level(h));
+    decode_memory_of(h.base_vertices, h.base_faces, h.level as u32, colour)
+}
+
+/// Bytes a decoder holds at most for a base of `vertices` and `faces` at
+/// `level`, with colours at `colour` (a level at least as fine) or
+/// without: [`DECODE_BYTES_PER_SAMPLE`] a sample of the geometry,
+/// [`COLOUR_BYTES_PER_SAMPLE`] a sample of the colour (its own layout,
+/// and a texture where it is finer), [`DECODE_BYTES_PER_BASE_ELEMENT`] a
+/// base vertex or face.
+pub fn decode_memory_of(vertices: u32, faces: u32, level: u32, colour: Option<u32>) -> u64 {
+    let base = vertices as u64 + faces as u64;
+    let colour = colour.map_or(0, |l| {
+        sample_bound(vertices, faces, l).saturating_mul(COLOUR_BYTES_PER_SAMPLE)
+    });
+    sample_bound(vertices, faces, level)
+        .saturating_mul(DECODE_BYTES_PER_SAMPLE)
+        .saturating_add(colour)
         .saturating_add(base.saturating_mul(DECODE_BYTES_PER_BASE_ELEMENT))
 }
 
