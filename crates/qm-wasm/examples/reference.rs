@@ -10,7 +10,9 @@
 //! estimated error and PSNR,
 //! the [`qm_wasm::mesh_checksum`] of the mesh (the viewer's triangulation of
 //! the quads, two triangles each), and for a file with colours the
-//! [`qm_wasm::colour_checksum`] of its vertex colours (else `null`).
+//! [`qm_wasm::colour_checksum`] of its vertex colours (else `null`), and
+//! for a file with colour finer than its geometry its texture's width,
+//! height and [`qm_wasm::colour_checksum`] of the texels (else `null`).
 
 use std::process::ExitCode;
 
@@ -59,8 +61,16 @@ fn main() -> ExitCode {
     let colours = d.colours.as_deref().map_or("null".to_string(), |c| {
         format!("\"{:016x}\"", qm_wasm::colour_checksum(c))
     });
+    let texture = d.texture.as_ref().map_or("null".to_string(), |a| {
+        format!(
+            "{{\"width\":{},\"height\":{},\"checksum\":\"{:016x}\"}}",
+            a.width,
+            a.height,
+            qm_wasm::colour_checksum(&a.texels)
+        )
+    });
     println!(
-        "{{\"bytes\":{n},\"bytesUsed\":{used},\"level\":{},\"passes\":{},\"vertices\":{},\"triangles\":{},\"error\":{},\"psnr\":{},\"checksum\":\"{checksum:016x}\",\"colours\":{colours}}}",
+        "{{\"bytes\":{n},\"bytesUsed\":{used},\"level\":{},\"passes\":{},\"vertices\":{},\"triangles\":{},\"error\":{},\"psnr\":{},\"checksum\":\"{checksum:016x}\",\"colours\":{colours},\"texture\":{texture}}}",
         d.level,
         d.passes,
         vertices,

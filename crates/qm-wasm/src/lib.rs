@@ -9,7 +9,9 @@
 //! ([`error_code`]). No decoding happens here that the native decoder does
 //! not do in the same code.
 
-use qm_codec::{DecodeOptions, Error, LevelChoice, Limits, StreamDecoder, vertex_normals};
+use qm_codec::{
+    Atlas, DecodeOptions, Error, LevelChoice, Limits, StreamDecoder, Textured, vertex_normals,
+};
 use wasm_bindgen::prelude::*;
 
 /// The browser decoder's memory limit: 512 MiB, an eighth of the largest
@@ -22,6 +24,9 @@ pub struct Buffers {
     decoder: StreamDecoder,
     positions: Vec<f32>,
     normals: Vec<f32>,
+    /// For a file with colour finer than its geometry: the last
+    /// refinement's texture and its triangles over split vertices.
+    texture: Option<(Atlas, Textured)>,
 }
 
 impl Default for Buffers {
@@ -48,6 +53,7 @@ impl Buffers {
             decoder: StreamDecoder::new(options),
             positions: Vec::new(),
             normals: Vec::new(),
+            texture: None,
         }
     }
 
@@ -69,7 +75,19 @@ impl Buffers {
         let mesh = self.decoder.mesh().expect("just refined");
         mesh.positions_f32(&mut self.positions);
         vertex_normals(&self.positions, mesh.triangles(), &mut self.normals);
+        self.texture = mesh.texture().map(|atlas| {
+            let textured = mesh.textured(&atlas);
+            (atlas, textured)
+        });
         Ok(true)
+    }
+
+    /// For a file whose colour is finer than its geometry: the last
+    /// refinement's colours as a texture atlas, and its triangles over
+    /// vertices that each have one texture coordinate
+    /// ([`qm_codec::LevelMesh::textured`]).
+    pub fn texture(&self) -> Option<(&Atlas, &Textured)> {
+        self.texture.as_ref().map(|(a, t)| (a, t))
     }
 
     /// Vertex positions of the last refinement, `x, y, z` per vertex.
@@ -412,6 +430,52 @@ impl QmDecoder {
     #[wasm_bindgen(getter, js_name = hasColors)]
     pub fn has_colors(&self) -> bool {
         self.inner.has_colours()
+    }
+
+    /// Width of the last refinement's texture in texels; 0 without one
+    /// (a file whose colour is no finer than its geometry).
+    #[wasm_bindgen(getter, js_name = textureWidth)]
+    pub fn texture_width(&self) -> u32 {
+        self.inner.texture().map_or(0, |(a, _)| a.width)
+    }
+
+    /// Height of the last refinement's texture in texels; 0 without one.
+    #[wasm_bindgen(getter, js_name = textureHeight)]
+    pub fn texture_height(&self) -> u32 {
+        self.inner.texture().map_or(0, |(a, _)| a.height)
+    }
+
+    /// The last refinement's texture (a copy), `r, g, b, 255` per texel,
+    /// 8-bit sRGB, rows from the top; `undefined` without one.
+    #[wasm_bindgen(js_name = textureRgba)]
+    pub fn texture_rgba(&self) -> Option<Vec<u8>> {
+        let (atlas, _) = self.inner.texture()?;
+        Some(
+            (atlas.texels.iter())
+                .flat_map(|&[r, g, b]| [r, g, b, 255])
+                .collect(),
+        )
+    }
+
+    /// With a texture: the mesh vertex of each textured vertex (a vertex
+    /// of several base quads is one textured vertex a quad); `undefined`
+    /// without.
+    #[wasm_bindgen(js_name = texturedVertices)]
+    pub fn textured_vertices(&self) -> Option<Vec<u32>> {
+        Some(self.inner.texture()?.1.vertices.clone())
+    }
+
+    /// With a texture: each textured vertex's coordinates, `u, v`, `(0, 0)`
+    /// at the image's top-left corner; `undefined` without.
+    pub fn uvs(&self) -> Option<Vec<f32>> {
+        Some(self.inner.texture()?.1.texcoords.as_flattened().to_vec())
+    }
+
+    /// With a texture: the triangles over the textured vertices, in the
+    /// order of [`Self::indices`]; `undefined` without.
+    #[wasm_bindgen(js_name = texturedIndices)]
+    pub fn textured_indices(&self) -> Option<Vec<u32>> {
+        Some(self.inner.texture()?.1.triangles.clone())
     }
 
     /// [`mesh_checksum`] of the last refinement, as 16 hex digits.

@@ -72,6 +72,20 @@ export interface QMMesh {
    * one colour per vertex of this mesh; null for a file without.
    */
   colors: Uint8Array | null;
+  /**
+   * For a file whose colour is finer than its geometry: that colour as a
+   * texture atlas, r, g, b, 255 per texel (8-bit sRGB), rows from the top;
+   * null for other files.
+   */
+  texture: { width: number; height: number; data: Uint8Array } | null;
+  /**
+   * With a texture: the mesh's triangles over vertices that each have one
+   * texture coordinate (a vertex of several base quads is one such vertex
+   * a quad). `vertices` gives each one's vertex of this mesh (its position,
+   * normal and colour), `uvs` its u, v ((0, 0) at the image's top-left
+   * corner), `indices` three a triangle in the order of `indices` above.
+   */
+  textured: { vertices: Uint32Array; uvs: Float32Array; indices: Uint32Array } | null;
   /** The subdivision level shown. */
   level: number;
   /** The file's finest level. */

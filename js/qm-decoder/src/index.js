@@ -214,6 +214,14 @@ export class StreamDecoder {
       indices: d.indices(),
       // 8-bit sRGB, r g b per vertex, for a file with colours.
       colors: d.colors() ?? null,
+      // For a file with colour finer than its geometry: the texture, and
+      // the triangles over vertices with one texture coordinate each.
+      texture: d.textureWidth
+        ? { width: d.textureWidth, height: d.textureHeight, data: d.textureRgba() }
+        : null,
+      textured: d.textureWidth
+        ? { vertices: d.texturedVertices(), uvs: d.uvs(), indices: d.texturedIndices() }
+        : null,
       level: d.level,
       finestLevel: d.finestLevel,
       passes: d.passes,

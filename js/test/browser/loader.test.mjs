@@ -35,7 +35,8 @@ let cube;
 let throttled; // qm serve --throttle, the spot file
 let fast; // qm serve unthrottled, the cube file
 let b;
-let colouredFile; // the coloured example's sphere, served throttled
+let colouredFile;
+let texturedFile; // the coloured example's sphere, served throttled
 
 // `qm decompress` of the first `bytes` at `level`, as f32 positions and quads.
 function native(file, bytes, level, extra = []) {
@@ -86,6 +87,8 @@ before(async () => {
   }
   fs.copyFileSync(spot.file, path.join(www, 'spot-static.qm'));
   colouredFile = { file: path.join(models, 'coloured.qm'), ...coloured(path.join(models, 'coloured.qm')) };
+  texturedFile = path.join(models, 'textured_cube.qm');
+  fs.copyFileSync(path.join(root, 'tests', 'data', 'textured_cube.qm'), texturedFile);
   // About 5 s for the whole spot file.
   throttled = await serve(models, { throttle: Math.max(8, Math.round(spot.bytes.length / 1024 / 5)), web: www });
   fast = await serve(cubes, { web: www });
@@ -351,5 +354,24 @@ test('a coloured file: colours at every refinement, a color attribute in step', 
   assert.equal(g.ok, true, JSON.stringify(g.error));
   assert.equal(g.final.vertexCount, colouredFile.rgb.length / 3);
   assert.deepEqual(g.final.color, { count: g.final.vertexCount, type: 'Uint16Array', vertexColors: true, sharedMaterialChanged: false });
+  assert.deepEqual(b.errors, []);
+});
+
+test('a textured file: a uv attribute and the texture, loaded and through qm gltf', { timeout: 120000 }, async () => {
+  await page(throttled);
+  const r = await b.page.evaluate(() => window.qmTest.textured('models/textured_cube.qm'));
+  assert.equal(r.ok, true, JSON.stringify(r.error));
+  const native = reference(texturedFile, r.bytesUsed, r.level);
+  assert.deepEqual(r.texture, { width: native.texture.width, height: native.texture.height, isDataTexture: true, colorSpace: 'srgb' });
+  assert.equal(r.uv, r.position, 'one texture coordinate a vertex');
+  assert.ok(r.position >= native.vertices, 'vertices split where base quads meet');
+  assert.equal(r.color, false, 'the texture shows the colour');
+  assert.ok(r.covered > 0.05, 'the mesh is drawn');
+  // Through qm gltf and the plugin: the meshes' material shows the texture.
+  await gltf('textured.glb', [], texturedFile);
+  const g = await b.page.evaluate(() => window.qmTest.gltf('textured.glb', { plugin: true, options: { level: 'finest' } }));
+  assert.equal(g.ok, true, JSON.stringify(g.error));
+  assert.equal(g.final.map, true, 'the material\'s map is the texture');
+  assert.equal(g.final.sharedMapChanged, false, 'a clone, not the shared material');
   assert.deepEqual(b.errors, []);
 });

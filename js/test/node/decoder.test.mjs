@@ -313,3 +313,41 @@ test('a coloured file: colours at every refinement, the input\'s at the end', as
   // A file without colours has none.
   assert.equal((await decode(cube.bytes)).colors, null);
 });
+
+test('a file with colour finer than its geometry: a texture and its coordinates', async () => {
+  const file = path.join(root, 'tests', 'data', 'textured_cube.qm');
+  const bytes = new Uint8Array(fs.readFileSync(file));
+  const d = new StreamDecoder();
+  let shown = 0;
+  for (let at = 0; at < bytes.length; at += 997) {
+    if (!d.push(bytes.subarray(at, at + 997))) continue;
+    const m = d.refine();
+    if (!m) continue;
+    const native = reference(file, m.bytesUsed, m.level);
+    if (!native.texture) {
+      assert.equal(m.texture, null, `no texture at ${m.bytesUsed} bytes`);
+      continue;
+    }
+    shown++;
+    const { width, height, data } = m.texture;
+    assert.deepEqual([width, height], [native.texture.width, native.texture.height]);
+    const rgb = data.filter((_, i) => i % 4 !== 3);
+    assert.equal(fnv1a(rgb), native.texture.checksum, `the native decoder's texture at ${m.bytesUsed} bytes`);
+    // The textured triangles are the mesh's, over split vertices with
+    // coordinates on texel centres inside the image.
+    const t = m.textured;
+    assert.equal(t.indices.length, m.indices.length);
+    assert.ok(t.indices.every((v, k) => t.vertices[v] === m.indices[k]));
+    assert.equal(t.uvs.length, 2 * t.vertices.length);
+    for (let k = 0; k < t.uvs.length; k += 2) {
+      const x = t.uvs[k] * width - 0.5;
+      const y = t.uvs[k + 1] * height - 0.5;
+      assert.ok(Math.abs(x - Math.round(x)) < 1e-2 && Math.abs(y - Math.round(y)) < 1e-2);
+      assert.ok(x > 0 && x < width - 1 && y > 0 && y < height - 1);
+    }
+  }
+  assert.ok(shown > 0, 'a texture once the colour reached finer levels');
+  d.end();
+  d.dispose();
+  assert.equal((await decode(cube.bytes)).texture, null);
+});

@@ -61,6 +61,23 @@ function showColors(objects) {
   }
 }
 
+// A texture decoded from the .qm (colour finer than the geometry): the
+// meshes' materials, cloned once, show it as their map instead of colours.
+function showTexture(objects, map) {
+  for (const object of objects) {
+    const one = (m) => {
+      if (!m || m.map === map) return m;
+      const c = m.userData.qmTextured ? m : m.clone();
+      c.userData.qmTextured = true;
+      c.map = map;
+      c.vertexColors = false;
+      c.needsUpdate = true;
+      return c;
+    };
+    object.material = Array.isArray(object.material) ? object.material.map(one) : one(object.material);
+  }
+}
+
 export class GLTFQMExtension {
   constructor(parser, options = {}) {
     this.parser = parser;
@@ -134,7 +151,8 @@ export class GLTFQMExtension {
       geometry,
       showFrom: ext.fallback?.bytes ?? 0,
       onUpdate: (u) => {
-        if (geometry.hasAttribute('color')) showColors(objects);
+        if (geometry.userData.qmTexture) showTexture(objects, geometry.userData.qmTexture);
+        else if (geometry.hasAttribute('color')) showColors(objects);
         onUpdate?.(u);
         this.onPrimitiveUpdate?.({ ...u, meshIndex, primitiveIndex });
       },

@@ -3,7 +3,16 @@
 // only the prefix a goal needs, and refines one BufferGeometry in place as
 // the bytes arrive.
 
-import { BufferAttribute, BufferGeometry, Loader } from 'three';
+import {
+  BufferAttribute,
+  BufferGeometry,
+  DataTexture,
+  LinearFilter,
+  LinearMipmapLinearFilter,
+  Loader,
+  RGBAFormat,
+  SRGBColorSpace,
+} from 'three';
 import { QMError } from './errors.js';
 import { WorkerPool } from './pool.js';
 import { BytesSource, UrlSource } from './source.js';
@@ -57,12 +66,59 @@ function srgbToLinear16(colors, out) {
   return out;
 }
 
+// A mesh with a texture as three.js draws it: its textured triangles, each
+// vertex's position and normal gathered from the mesh's; the texture shows
+// the colour, so no vertex colours.
+function texturedMesh(mesh) {
+  const t = mesh.textured;
+  const positions = new Float32Array(3 * t.vertices.length);
+  const normals = new Float32Array(3 * t.vertices.length);
+  for (let k = 0; k < t.vertices.length; k++) {
+    const v = 3 * t.vertices[k];
+    positions.set(mesh.positions.subarray(v, v + 3), 3 * k);
+    normals.set(mesh.normals.subarray(v, v + 3), 3 * k);
+  }
+  return { ...mesh, positions, normals, indices: t.indices, colors: null, uvs: t.uvs };
+}
+
+// The geometry's texture (`userData.qmTexture`, a DataTexture), updated in
+// place when its size stays, made anew otherwise, removed without one.
+function applyTexture(geometry, texture) {
+  let map = geometry.userData.qmTexture;
+  if (!texture) {
+    map?.dispose();
+    delete geometry.userData.qmTexture;
+    return;
+  }
+  const { width, height, data } = texture;
+  if (map && map.image.width === width && map.image.height === height) {
+    map.image.data.set(data);
+  } else {
+    map?.dispose();
+    // Row 0 at v = 0, as glTF has texture coordinates (no flip).
+    map = new DataTexture(data, width, height, RGBAFormat);
+    map.colorSpace = SRGBColorSpace;
+    map.magFilter = LinearFilter;
+    map.minFilter = LinearMipmapLinearFilter;
+    map.generateMipmaps = true;
+    geometry.userData.qmTexture = map;
+  }
+  map.needsUpdate = true;
+}
+
 /**
  * Puts a decoded mesh into `geometry`, reusing its buffers when the sizes
  * allow. A mesh with `colors` (qm-decoder's sRGB bytes) gives the geometry a
- * `color` attribute in linear values; one without removes it.
+ * `color` attribute in linear values; one without removes it. A mesh with a
+ * texture (colour finer than the geometry) gives it its textured triangles
+ * with a `uv` attribute, and the texture as `geometry.userData.qmTexture` (a
+ * DataTexture for a material's `map`), instead of colours.
  */
-export function applyMesh(geometry, mesh) {
+export function applyMesh(geometry, decoded) {
+  const mesh = decoded.textured ? texturedMesh(decoded) : decoded;
+  applyTexture(geometry, decoded.textured ? decoded.texture : null);
+  const uvs = mesh.uvs ?? null;
+  const uv = geometry.getAttribute('uv');
   const position = geometry.getAttribute('position');
   const normal = geometry.getAttribute('normal');
   const color = geometry.getAttribute('color');
@@ -72,6 +128,7 @@ export function applyMesh(geometry, mesh) {
     && position.array.length === mesh.positions.length
     && index.array.length === mesh.indices.length
     && (colors ? color?.array.length === colors.length : !color)
+    && (uvs ? uv?.array.length === uvs.length : !uv)
     && geometry.userData.qmLevel === mesh.level;
   if (same) {
     position.array.set(mesh.positions);
@@ -81,6 +138,10 @@ export function applyMesh(geometry, mesh) {
     if (colors) {
       srgbToLinear16(colors, color.array);
       color.needsUpdate = true;
+    }
+    if (uvs) {
+      uv.array.set(uvs);
+      uv.needsUpdate = true;
     }
   } else {
     // New sizes: free the GPU buffers of the old ones; the renderer uploads
@@ -95,6 +156,7 @@ export function applyMesh(geometry, mesh) {
     if (colors) {
       geometry.setAttribute('color', new BufferAttribute(srgbToLinear16(colors, new Uint16Array(colors.length)), 3, true));
     }
+    if (uvs) geometry.setAttribute('uv', new BufferAttribute(uvs, 2));
     geometry.setIndex(new BufferAttribute(mesh.indices, 1));
   }
   geometry.userData.qmLevel = mesh.level;

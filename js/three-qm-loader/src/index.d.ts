@@ -124,11 +124,23 @@ export declare class QMLoader extends Loader<BufferGeometry> {
  * Puts a decoded mesh's arrays into a geometry (reusing buffers of the same
  * size). `colors` (8-bit sRGB, as qm-decoder gives them) become a `color`
  * attribute of linear values (normalized Uint16); without them the geometry
- * has no `color` attribute.
+ * has no `color` attribute. A mesh with a `texture` and `textured`
+ * triangles (a file whose colour is finer than its geometry) gives the
+ * geometry those triangles with a `uv` attribute and no `color`, and the
+ * texture as `geometry.userData.qmTexture`, a DataTexture (sRGB) to use as
+ * a material's `map`; the glTF extension sets it on the meshes' materials.
  */
 export declare function applyMesh(
   geometry: BufferGeometry,
-  mesh: { positions: Float32Array; normals: Float32Array; indices: Uint32Array; level: number; colors?: Uint8Array | null },
+  mesh: {
+    positions: Float32Array;
+    normals: Float32Array;
+    indices: Uint32Array;
+    level: number;
+    colors?: Uint8Array | null;
+    texture?: { width: number; height: number; data: Uint8Array } | null;
+    textured?: { vertices: Uint32Array; uvs: Float32Array; indices: Uint32Array } | null;
+  },
 ): void;
 
 export interface GLTFQMExtensionOptions extends QMStreamOptions {

@@ -23,6 +23,10 @@ function fail(seq, e) {
 function status(decoder, mesh) {
   const transfer = mesh ? [mesh.positions.buffer, mesh.normals.buffer, mesh.indices.buffer] : [];
   if (mesh?.colors) transfer.push(mesh.colors.buffer);
+  if (mesh?.texture) transfer.push(mesh.texture.data.buffer);
+  if (mesh?.textured) {
+    transfer.push(mesh.textured.vertices.buffer, mesh.textured.uvs.buffer, mesh.textured.indices.buffer);
+  }
   return [
     {
       ready: decoder.ready,

@@ -225,6 +225,37 @@ window.qmTest = {
     return { ok: true, decoded, updates, shownColors, covered: covered() };
   },
 
+  // A file with colour finer than its geometry: the loader gives the
+  // geometry its textured triangles (a uv attribute) and the texture.
+  async textured(url) {
+    await ready();
+    const stream = loader.stream(url, { level: 'finest', requestInit: { cache: 'no-store' } });
+    const mesh = new THREE.Mesh(stream.geometry, new THREE.MeshBasicMaterial());
+    show(mesh);
+    let update;
+    try {
+      update = await stream.done;
+    } catch (e) {
+      return { ok: false, error: errorInfo(e) };
+    }
+    const g = stream.geometry;
+    const map = g.userData.qmTexture;
+    mesh.material.map = map ?? null;
+    mesh.material.needsUpdate = true;
+    frame(mesh);
+    await nextFrames(2);
+    return {
+      ok: true,
+      bytesUsed: update.bytesUsed,
+      level: update.level,
+      uv: g.getAttribute('uv')?.count,
+      position: g.getAttribute('position').count,
+      color: g.hasAttribute('color'),
+      texture: map && { width: map.image.width, height: map.image.height, isDataTexture: map.isDataTexture === true, colorSpace: map.colorSpace },
+      covered: covered(),
+    };
+  },
+
   // A GLB: with plain GLTFLoader (the fallback), or with the plugin.
   async gltf(url, { plugin = false, options = {} } = {}) {
     const gltfLoader = new GLTFLoader();
@@ -255,6 +286,8 @@ window.qmTest = {
           vertexCount: mesh.geometry.getAttribute('position').count,
           sameGeometry: results[0].geometry === mesh.geometry,
           color: color && { count: color.count, type: color.array.constructor.name, vertexColors: mesh.material.vertexColors, sharedMaterialChanged: material.vertexColors },
+          map: Boolean(mesh.geometry.userData.qmTexture) && mesh.material.map === mesh.geometry.userData.qmTexture,
+          sharedMapChanged: Boolean(material.map),
           ...geometryInfo(mesh.geometry),
         };
       }
