@@ -1006,7 +1006,7 @@ fn a_texture_finer_than_the_mesh_comes_back_as_a_texture() {
     let out = qm(&["info", "cube.qm", "--json"], d);
     let info: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(info["level"], 0, "{info}");
-    assert_eq!(info["colour"]["level"], 5, "{info}");
+    assert_eq!(info["colour"]["level"], 6, "{info}");
     let colour_psnr = |output: &str, bytes: Option<&str>| {
         let mut args = vec!["decompress", "cube.qm", "-o", output, "--quiet"];
         args.extend(bytes.map(|b| ["--bytes", b]).into_iter().flatten());

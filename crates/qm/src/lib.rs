@@ -203,14 +203,72 @@ pub fn encode_prepared_asset(
     let Some(surface) = qm_param::ColourSurface::new(asset)? else {
         return encode_prepared(prepared, &asset.mesh, options);
     };
-    let finer = finer_colour_levels(surface.texels(), prepared.mesh.layout());
-    let colours = if finer == 0 {
-        surface.colours_at(prepared.mesh.positions())
-    } else {
+    let layout = prepared.mesh.layout();
+    let texels = surface.texels();
+    let sample = |finer: u32| -> Result<(Vec<[u8; 3]>, codec::qm_lift::Layout)> {
         let fine = prepared.mesh.refined(finer).map_err(codec::Error::from)?;
-        surface.colours_at(fine.positions())
+        let colours = surface.colours_at(fine.positions());
+        Ok((colours, fine.into_parts().0))
     };
+    let mut finer = finer_colour_levels(texels, layout);
+    if finer == 0 {
+        let colours = surface.colours_at(prepared.mesh.positions());
+        return encode_with(prepared, &asset.mesh, Some(&colours), options);
+    }
+    let (mut colours, mut fine) = sample(finer)?;
+    // A sharp texture: finer while what the samples miss of it stays
+    // above the target, up to four samples a texel.
+    while detail_psnr(&fine, &colours) < SHARP_TEXTURE_DB
+        && finer_colour_fits(finer + 1, 4.0 * texels, layout)
+    {
+        finer += 1;
+        (colours, fine) = sample(finer)?;
+    }
     encode_with(prepared, &asset.mesh, Some(&colours), options)
+}
+
+/// The colour PSNR, in dB, below which a texture's samples go one level
+/// finer than the texel count asks ([`finer_colour_levels`]): issue 46's
+/// target for lossless colour.
+pub const SHARP_TEXTURE_DB: f64 = 30.0;
+
+/// How well the colours of `layout`'s finest level follow from the level
+/// below, as PSNR over 8-bit RGB: each sample that level adds against the
+/// mean of its two (edge) or four (face) neighbours of the level below.
+/// What sampling one level coarser would miss of the texture, and about
+/// what this level misses of it where the texture is sharper still.
+fn detail_psnr(layout: &codec::qm_lift::Layout, colours: &[[u8; 3]]) -> f64 {
+    let n = layout.n();
+    let (mut sum, mut count) = (0.0, 0u64);
+    for f in 0..layout.face_count() {
+        let c = |i: usize, j: usize| colours[layout.sample(f, i, j) as usize].map(f64::from);
+        for j in 0..=n {
+            for i in 0..=n {
+                let neighbours = match (i % 2, j % 2) {
+                    (0, 0) => continue,
+                    (1, 0) => vec![c(i - 1, j), c(i + 1, j)],
+                    (0, 1) => vec![c(i, j - 1), c(i, j + 1)],
+                    _ => vec![
+                        c(i - 1, j - 1),
+                        c(i + 1, j - 1),
+                        c(i - 1, j + 1),
+                        c(i + 1, j + 1),
+                    ],
+                };
+                let v = c(i, j);
+                for k in 0..3 {
+                    let mean =
+                        neighbours.iter().map(|p| p[k]).sum::<f64>() / neighbours.len() as f64;
+                    sum += (v[k] - mean).powi(2);
+                }
+                count += 3;
+            }
+        }
+    }
+    if count == 0 || sum == 0.0 {
+        return f64::INFINITY;
+    }
+    20.0 * (255.0 / (sum / count as f64).sqrt()).log10()
 }
 
 /// Most colour samples, in all, that a texture's detail earns at levels
@@ -225,24 +283,25 @@ pub const MAX_COLOUR_SAMPLES: u64 = 1 << 22;
 /// decoder's memory estimate of the file allows within
 /// [`FINER_COLOUR_DECODE_MEMORY`].
 pub fn finer_colour_levels(texels: f64, layout: &codec::qm_lift::Layout) -> u32 {
-    let base = layout.base();
-    let level = layout.level();
-    let samples = |finer: u32| base.sample_count(level + finer) as f64;
-    let (vertices, faces) = (base.vertex_count(), base.faces().len() as u32);
-    let memory = |finer: u32| {
-        codec::container::decode_memory_of(vertices, faces, level, Some(level + finer))
-    };
-    let most = codec::container::MAX_FINER_COLOUR as u32;
     let mut finer = 0;
-    while finer < most
-        && samples(finer + 1) <= MAX_COLOUR_SAMPLES as f64
-        && samples(finer + 1) <= texels
-        && memory(finer + 1) <= FINER_COLOUR_DECODE_MEMORY
-        && codec::qm_lift::Layout::check(base, level + finer + 1).is_ok()
-    {
+    while finer_colour_fits(finer + 1, texels, layout) {
         finer += 1;
     }
     finer
+}
+
+/// Whether colour `finer` levels beyond `layout`'s has at most `most`
+/// samples and stays within the caps of [`finer_colour_levels`].
+fn finer_colour_fits(finer: u32, most: f64, layout: &codec::qm_lift::Layout) -> bool {
+    let (base, level) = (layout.base(), layout.level());
+    let samples = base.sample_count(level + finer) as f64;
+    let (vertices, faces) = (base.vertex_count(), base.faces().len() as u32);
+    let memory = codec::container::decode_memory_of(vertices, faces, level, Some(level + finer));
+    finer <= codec::container::MAX_FINER_COLOUR as u32
+        && samples <= MAX_COLOUR_SAMPLES as f64
+        && samples <= most
+        && memory <= FINER_COLOUR_DECODE_MEMORY
+        && codec::qm_lift::Layout::check(base, level + finer).is_ok()
 }
 
 /// The most memory a decoder's estimate of a file may reach for its colour
@@ -572,6 +631,32 @@ mod tests {
             messages.push(text);
             next = inner.source();
         }
+    }
+
+    /// The detail measure: infinite for flat or linear colour, low where
+    /// every other sample flips.
+    #[test]
+    fn detail_psnr_sees_what_the_level_below_misses() {
+        let mesh = crate::lift::synthetic::bumpy_sphere(3);
+        let layout = mesh.layout();
+        let count = layout.sample_count();
+        assert_eq!(
+            detail_psnr(layout, &vec![[90, 30, 200]; count]),
+            f64::INFINITY
+        );
+        let mut flips = vec![[0u8; 3]; count];
+        for f in 0..layout.face_count() {
+            for j in 0..=layout.n() {
+                for i in 0..=layout.n() {
+                    let v = if (i + j) % 2 == 0 { 0 } else { 255 };
+                    flips[layout.sample(f, i, j) as usize] = [v; 3];
+                }
+            }
+        }
+        // Edge points are 255 from their neighbours, centres equal theirs:
+        // an RMS of 255 sqrt(2/3), 1.76 dB.
+        let psnr = detail_psnr(layout, &flips);
+        assert!((psnr - 1.761).abs() < 0.01, "{psnr}");
     }
 
     /// A textured decode as an asset looks as its written files do.
