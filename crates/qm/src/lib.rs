@@ -633,8 +633,8 @@ mod tests {
         }
     }
 
-    /// The detail measure: infinite for flat or linear colour, low where
-    /// every other sample flips.
+    /// The detail measure: infinite for flat colour, 0 dB where every
+    /// sample of the finest level is 255 from the level below.
     #[test]
     fn detail_psnr_sees_what_the_level_below_misses() {
         let mesh = crate::lift::synthetic::bumpy_sphere(3);
@@ -644,19 +644,13 @@ mod tests {
             detail_psnr(layout, &vec![[90, 30, 200]; count]),
             f64::INFINITY
         );
-        let mut flips = vec![[0u8; 3]; count];
-        for f in 0..layout.face_count() {
-            for j in 0..=layout.n() {
-                for i in 0..=layout.n() {
-                    let v = if (i + j) % 2 == 0 { 0 } else { 255 };
-                    flips[layout.sample(f, i, j) as usize] = [v; 3];
-                }
-            }
+        // White where the finest level adds a sample, black where the level
+        // below has one: every new sample misses by 255, 0 dB.
+        let mut white = vec![[255u8; 3]; count];
+        for s in layout.samples_at(layout.level() - 1) {
+            white[s as usize] = [0; 3];
         }
-        // Edge points are 255 from their neighbours, centres equal theirs:
-        // an RMS of 255 sqrt(2/3), 1.76 dB.
-        let psnr = detail_psnr(layout, &flips);
-        assert!((psnr - 1.761).abs() < 0.01, "{psnr}");
+        assert_eq!(detail_psnr(layout, &white), 0.0);
     }
 
     /// A textured decode as an asset looks as its written files do.
