@@ -114,10 +114,10 @@ impl RemeshArgs {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Compress a mesh (OBJ, PLY, OFF, STL, glTF, GLB) into a .qm stream.
-    /// What the stream cannot carry yet (colours, texture coordinates,
-    /// textures, materials, normals, ...) is named on stderr, one warning a
-    /// kind.
+    /// Compress a mesh (OBJ, PLY, OFF, STL, glTF, GLB) into a .qm stream,
+    /// with its vertex colours or base colour texture. What the stream
+    /// cannot carry (texture coordinates and images as given, normals, other
+    /// maps, ...) is named on stderr, one warning a kind.
     Compress {
         /// Input mesh.
         input: PathBuf,
