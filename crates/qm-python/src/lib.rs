@@ -582,7 +582,9 @@ impl StreamDecoder {
             .decoder()
             .map_or(0, |d| u32::from(d.header().passes));
         let flat: Vec<u32> = m.quads().iter().flatten().copied().collect();
-        let faces = decoder.decoder().map_or(0, |d| d.layout().face_count());
+        let faces = (decoder.decoder().expect("a mesh has its decoder"))
+            .layout()
+            .face_count();
         let (texture, face_uvs) = (m.texture())
             .map(|atlas| {
                 let corners = atlas.corner_texcoords(faces, m.level());

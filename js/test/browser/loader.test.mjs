@@ -367,6 +367,9 @@ test('a textured file: a uv attribute and the texture, loaded and through qm glt
   assert.ok(r.position >= native.vertices, 'vertices split where base quads meet');
   assert.equal(r.color, false, 'the texture shows the colour');
   assert.ok(r.covered > 0.05, 'the mesh is drawn');
+  assert.equal(r.shown, true, 'the material set on update shows the final texture');
+  assert.equal(r.distinctMaps, 1, `one DataTexture for the stream, however its size changed: ${r.looks}`);
+  assert.equal(r.looks.at(-1), 'texture');
   // Through qm gltf and the plugin: the meshes' material shows the texture.
   await gltf('textured.glb', [], texturedFile);
   const g = await b.page.evaluate(() => window.qmTest.gltf('textured.glb', { plugin: true, options: { level: 'finest' } }));

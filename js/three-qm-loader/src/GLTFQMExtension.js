@@ -46,32 +46,32 @@ function fallbackUpdate(geometry, ext) {
   };
 }
 
-// Vertex colours decoded from the .qm: the meshes' materials use them. A
-// material is cloned first (as GLTFLoader does for primitives with COLOR_0),
-// since other meshes may share it without colours.
-function showColors(objects) {
+// The look decoded from the .qm on the meshes' materials: vertex colours
+// (a `color` attribute) or a texture (`userData.qmTexture`, for colour finer
+// than the geometry) as their map. A material that does not show it yet is
+// cloned once (as GLTFLoader does for primitives with COLOR_0), since other
+// meshes may share it; `clones` maps each original to its clone, which later
+// updates change in place (a stream may go from colours to a texture).
+function showLook(objects, geometry, clones) {
+  const map = geometry.userData.qmTexture ?? null;
+  const vertexColors = !map && geometry.hasAttribute('color');
+  if (!map && !vertexColors) return;
   for (const object of objects) {
     const one = (m) => {
-      if (!m || m.vertexColors) return m;
-      const c = m.clone();
-      c.vertexColors = true;
-      return c;
-    };
-    object.material = Array.isArray(object.material) ? object.material.map(one) : one(object.material);
-  }
-}
-
-// A texture decoded from the .qm (colour finer than the geometry): the
-// meshes' materials, cloned once, show it as their map instead of colours.
-function showTexture(objects, map) {
-  for (const object of objects) {
-    const one = (m) => {
-      if (!m || m.map === map) return m;
-      const c = m.userData.qmTextured ? m : m.clone();
-      c.userData.qmTextured = true;
-      c.map = map;
-      c.vertexColors = false;
-      c.needsUpdate = true;
+      if (!m) return m;
+      const own = m.userData.qmClone === true;
+      if (!own && (m.map ?? null) === map && m.vertexColors === vertexColors) return m;
+      let c = own ? m : clones.get(m);
+      if (!c) {
+        c = m.clone();
+        c.userData.qmClone = true;
+        clones.set(m, c);
+      }
+      if ((c.map ?? null) !== map || c.vertexColors !== vertexColors) {
+        c.map = map;
+        c.vertexColors = vertexColors;
+        c.needsUpdate = true;
+      }
       return c;
     };
     object.material = Array.isArray(object.material) ? object.material.map(one) : one(object.material);
@@ -90,6 +90,8 @@ export class GLTFQMExtension {
     this.streamOptions = streamOptions;
     this.streams = [];
     this.targets = [];
+    // Each material cloned to show the .qm's look, by its original.
+    this.clones = new Map();
     let settle;
     this.done = new Promise((resolve, reject) => {
       settle = { resolve, reject };
@@ -151,8 +153,7 @@ export class GLTFQMExtension {
       geometry,
       showFrom: ext.fallback?.bytes ?? 0,
       onUpdate: (u) => {
-        if (geometry.userData.qmTexture) showTexture(objects, geometry.userData.qmTexture);
-        else if (geometry.hasAttribute('color')) showColors(objects);
+        showLook(objects, geometry, this.clones);
         onUpdate?.(u);
         this.onPrimitiveUpdate?.({ ...u, meshIndex, primitiveIndex });
       },

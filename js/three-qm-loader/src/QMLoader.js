@@ -81,8 +81,10 @@ function texturedMesh(mesh) {
   return { ...mesh, positions, normals, indices: t.indices, colors: null, uvs: t.uvs };
 }
 
-// The geometry's texture (`userData.qmTexture`, a DataTexture), updated in
-// place when its size stays, made anew otherwise, removed without one.
+// The geometry's texture (`userData.qmTexture`): one DataTexture for the
+// geometry's life, so that a material keeps it as its map. Its image is
+// updated in place, or replaced (the GPU texture freed first) when the atlas
+// grows as the colour reaches finer levels; removed without a texture.
 function applyTexture(geometry, texture) {
   let map = geometry.userData.qmTexture;
   if (!texture) {
@@ -91,10 +93,7 @@ function applyTexture(geometry, texture) {
     return;
   }
   const { width, height, data } = texture;
-  if (map && map.image.width === width && map.image.height === height) {
-    map.image.data.set(data);
-  } else {
-    map?.dispose();
+  if (!map) {
     // Row 0 at v = 0, as glTF has texture coordinates (no flip).
     map = new DataTexture(data, width, height, RGBAFormat);
     map.colorSpace = SRGBColorSpace;
@@ -102,6 +101,11 @@ function applyTexture(geometry, texture) {
     map.minFilter = LinearMipmapLinearFilter;
     map.generateMipmaps = true;
     geometry.userData.qmTexture = map;
+  } else if (map.image.width === width && map.image.height === height) {
+    map.image.data.set(data);
+  } else {
+    map.dispose();
+    map.image = { data, width, height };
   }
   map.needsUpdate = true;
 }

@@ -229,8 +229,25 @@ window.qmTest = {
   // geometry its textured triangles (a uv attribute) and the texture.
   async textured(url) {
     await ready();
-    const stream = loader.stream(url, { level: 'finest', requestInit: { cache: 'no-store' } });
-    const mesh = new THREE.Mesh(stream.geometry, new THREE.MeshBasicMaterial());
+    const maps = new Set();
+    const looks = [];
+    const mesh = new THREE.Mesh(new THREE.BufferGeometry(), new THREE.MeshBasicMaterial());
+    const stream = loader.stream(url, {
+      level: 'finest',
+      geometry: mesh.geometry,
+      requestInit: { cache: 'no-store' },
+      // The README's recipe: the material follows the geometry's look.
+      onUpdate: ({ geometry }) => {
+        const map = geometry.userData.qmTexture ?? null;
+        const vertexColors = !map && geometry.hasAttribute('color');
+        if (map) maps.add(map);
+        looks.push(map ? 'texture' : vertexColors ? 'colors' : 'none');
+        if (mesh.material.map !== map || mesh.material.vertexColors !== vertexColors) {
+          Object.assign(mesh.material, { map, vertexColors });
+          mesh.material.needsUpdate = true;
+        }
+      },
+    });
     show(mesh);
     let update;
     try {
@@ -240,8 +257,6 @@ window.qmTest = {
     }
     const g = stream.geometry;
     const map = g.userData.qmTexture;
-    mesh.material.map = map ?? null;
-    mesh.material.needsUpdate = true;
     frame(mesh);
     await nextFrames(2);
     return {
@@ -252,6 +267,9 @@ window.qmTest = {
       position: g.getAttribute('position').count,
       color: g.hasAttribute('color'),
       texture: map && { width: map.image.width, height: map.image.height, isDataTexture: map.isDataTexture === true, colorSpace: map.colorSpace },
+      shown: mesh.material.map === map,
+      distinctMaps: maps.size,
+      looks,
       covered: covered(),
     };
   },
