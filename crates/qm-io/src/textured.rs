@@ -38,7 +38,8 @@ pub fn textured_files(path: &Path) -> [PathBuf; 3] {
 /// coordinate, and each face fanned into `f v/vt` triangles from its first
 /// corner, the diagonal a qm texture is sampled on), a material library naming the
 /// image as `map_Kd`, and the image as PNG ([`textured_files`]); each file
-/// is written whole or not at all, the image first and the mesh last.
+/// is written whole or not at all, the image first and the mesh last, and
+/// a failure removes those written before it.
 /// Fails, naming the file, for another format than OBJ, a texel count
 /// other than `width * height`, a corner count other than the mesh's, and
 /// for everything [`write_mesh`](crate::write_mesh) refuses.
@@ -87,19 +88,26 @@ pub fn write_textured_mesh(
         w.write_all(&png_bytes(texture.width, texture.height, texture.texels))
     })
     .map_err(io(&png))?;
+    // A failure after the image leaves none of the three files behind.
+    let undo = |e: MeshError, written: &[&Path]| {
+        for p in written {
+            let _ = std::fs::remove_file(p);
+        }
+        e
+    };
     write_atomic(&mtl, |w| {
         write!(
             w,
             "# written by qm\nnewmtl qm\nKd 1 1 1\nmap_Kd {png_name}\n"
         )
     })
-    .map_err(io(&mtl))?;
+    .map_err(|e| undo(io(&mtl)(e), &[&png]))?;
     write_atomic(path, |w| {
         let mut w = io::BufWriter::new(w);
         write_obj(&mut w, mesh, texture, &mtl_name)?;
         w.flush()
     })
-    .map_err(io(path))
+    .map_err(|e| undo(io(path)(e), &[&png, &mtl]))
 }
 
 /// The OBJ text of [`write_textured_mesh`].
@@ -224,5 +232,13 @@ mod tests {
         assert!(textured_files(&other).iter().all(|p| !p.exists()));
         let e = write_textured_mesh(&dir.path().join("x.ply"), &mesh, &texture).unwrap_err();
         assert!(e.to_string().contains("x.ply"), "{e}");
+        // The mesh file cannot be written (a folder is in its place): the
+        // image and the library written before it are gone too.
+        let blocked = dir.path().join("blocked.obj");
+        std::fs::create_dir(&blocked).unwrap();
+        let e = write_textured_mesh(&blocked, &mesh, &texture).unwrap_err();
+        assert!(e.to_string().contains("blocked.obj"), "{e}");
+        let [_, mtl, png] = textured_files(&blocked);
+        assert!(!mtl.exists() && !png.exists());
     }
 }
