@@ -379,6 +379,13 @@ impl Decoder {
         })
     }
 
+    /// For a file with colours: the colour stream bytes the last decode
+    /// used (its colours, and its texture, change only with them and the
+    /// level).
+    pub fn colour_bytes_used(&self) -> Option<usize> {
+        self.colour.as_ref().map(|c| c.used)
+    }
+
     /// For a file with colours, those of the last decode: one 8-bit sRGB
     /// colour per vertex of its level's mesh, in the order of
     /// [`Decompressed::level_mesh`] (empty before the first decode).

@@ -27,6 +27,9 @@ pub struct Buffers {
     /// For a file with colour finer than its geometry: the last
     /// refinement's texture and its triangles over split vertices.
     texture: Option<(Atlas, Textured)>,
+    /// The level and colour stream bytes the texture was made for: a
+    /// refinement that advanced the geometry alone keeps it.
+    texture_key: Option<(u32, usize)>,
 }
 
 impl Default for Buffers {
@@ -54,6 +57,7 @@ impl Buffers {
             positions: Vec::new(),
             normals: Vec::new(),
             texture: None,
+            texture_key: None,
         }
     }
 
@@ -75,10 +79,15 @@ impl Buffers {
         let mesh = self.decoder.mesh().expect("just refined");
         mesh.positions_f32(&mut self.positions);
         vertex_normals(&self.positions, mesh.triangles(), &mut self.normals);
-        self.texture = mesh.texture().map(|atlas| {
-            let textured = mesh.textured(&atlas);
-            (atlas, textured)
-        });
+        let decoder = self.decoder.decoder().expect("a mesh has its decoder");
+        let key = decoder.colour_bytes_used().map(|used| (mesh.level(), used));
+        if key.is_none() || key != self.texture_key {
+            self.texture = mesh.texture().map(|atlas| {
+                let textured = mesh.textured(&atlas);
+                (atlas, textured)
+            });
+            self.texture_key = key;
+        }
         Ok(true)
     }
 
@@ -685,6 +694,42 @@ mod tests {
         inc.decoder_mut().push(&plain).unwrap();
         inc.refine().unwrap();
         assert!(!inc.has_colours() && inc.colours().is_none());
+    }
+
+    /// A file with colour finer than its geometry: every refinement's
+    /// texture and split triangles are the native decoder's for that
+    /// prefix, whether made anew or kept from the last refinement.
+    #[test]
+    fn textures_follow_every_refinement() {
+        let mesh = bumpy_sphere(2);
+        let fine = bumpy_sphere(4);
+        let rgb: Vec<[u8; 3]> = (fine.positions().iter())
+            .map(|p| [p.x, p.y, p.z].map(|x| (128.0 + 120.0 * (5.0 * x).sin()) as u8))
+            .collect();
+        let bytes = qm_codec::compress_coloured(&mesh, &rgb, &EncodeOptions::DEFAULT, None)
+            .unwrap()
+            .bytes;
+        let mut inc = Buffers::new(DecodeOptions::default());
+        let mut textured = 0;
+        for chunk in bytes.chunks(61) {
+            if !inc.decoder_mut().push(chunk).unwrap() || !inc.refine().unwrap() {
+                continue;
+            }
+            let n = inc.decoder().bytes_received();
+            let native =
+                decompress(&bytes, &DecodeOptions::default().with_max_bytes(Some(n))).unwrap();
+            assert_eq!(
+                inc.texture().map(|(a, _)| a),
+                native.texture.as_ref(),
+                "at {n} bytes"
+            );
+            if let Some((atlas, t)) = inc.texture() {
+                let m = inc.decoder().mesh().unwrap();
+                assert_eq!(t, &m.textured(atlas), "at {n} bytes");
+                textured += 1;
+            }
+        }
+        assert!(textured > 3, "{textured} textured refinements");
     }
 
     #[test]
