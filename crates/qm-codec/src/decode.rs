@@ -315,6 +315,19 @@ struct ColourDecoder {
     colours: Vec<[u8; 3]>,
 }
 
+impl ColourDecoder {
+    /// The colour values of `decoded` (this decoder's last coefficients,
+    /// none finer than `top`) lifted up to level `to`, numbered as its
+    /// layout (which reaches `to`); `update` is the header's rule.
+    fn values(&self, update: u8, decoded: &qm_ezw::Decoded, to: u32, top: u32) -> Vec<Coord> {
+        let mut values = Vec::new();
+        crate::colour::fill(&self.layout, &self.tree, decoded, &self.header, &mut values);
+        let update = UpdateRule::from_code(update).expect("checked by the container");
+        synthesize(&Lifting::new(&self.layout, update), &mut values, 0, to, top);
+        values
+    }
+}
+
 /// What one call of [`Decoder::decode_into`] achieved.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[non_exhaustive]
@@ -412,10 +425,7 @@ impl Decoder {
         if top <= level || top > layout.level() {
             return None;
         }
-        let mut values = Vec::new();
-        crate::colour::fill(layout, &colour.tree, decoded, &colour.header, &mut values);
-        let update = UpdateRule::from_code(self.header.update).expect("checked by the container");
-        synthesize(&Lifting::new(layout, update), &mut values, 0, top, top);
+        let values = colour.values(self.header.update, decoded, top, top);
         let s = 1usize << (layout.level() - top);
         Some(Atlas::new(layout.face_count(), top, |f, i, j| {
             let sample = layout.sample(f, i as usize * s, j as usize * s);
@@ -470,23 +480,8 @@ impl Decoder {
             let base = colour.layout.base().clone();
             colour.layout = Layout::new(base, reach).expect("checked by Decoder::new");
         }
-        let mut values = Vec::new();
-        crate::colour::fill(
-            &colour.layout,
-            &colour.tree,
-            decoded,
-            &colour.header,
-            &mut values,
-        );
         let top = top_level(&colour.tree, decoded);
-        let update = UpdateRule::from_code(self.header.update).expect("checked by the container");
-        synthesize(
-            &Lifting::new(&colour.layout, update),
-            &mut values,
-            0,
-            level,
-            top,
-        );
+        let values = colour.values(self.header.update, decoded, level, top);
         let (samples, _) = level_index(&colour.layout, level);
         colour.colours = (samples.iter())
             .map(|&s| crate::colour::from_value(values[s as usize]))

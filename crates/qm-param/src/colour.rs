@@ -142,12 +142,11 @@ impl<'a> ColourSurface<'a> {
         let material = self.material(face)?;
         let image = image_of(material)?;
         let uv = self.asset.tex_coords.as_ref()?;
-        let first = self.first_corners[face] as usize;
-        let corners = [first, first + k + 1, first + k + 2].map(|c| uv.get(c));
-        let [Some(a), Some(b), Some(c)] = corners else {
-            return None;
-        };
-        Some((material, image, [a, b, c]))
+        Some((
+            material,
+            image,
+            fan_texcoords(uv, self.first_corners[face] as usize, k)?,
+        ))
     }
 
     /// Texels of decoded texture images that the surface shows
@@ -208,8 +207,7 @@ pub fn texels(asset: &Asset) -> f64 {
         if let Some(image) = material_of(asset, f).and_then(image_of) {
             let texels = image.width as f64 * image.height as f64;
             for k in 0..face.len().saturating_sub(2) {
-                let corners = [first, first + k + 1, first + k + 2].map(|c| uv.get(c));
-                if let [Some(a), Some(b), Some(c)] = corners {
+                if let Some([a, b, c]) = fan_texcoords(uv, first, k) {
                     let d = |p: [f32; 2]| [f64::from(p[0] - a[0]), f64::from(p[1] - a[1])];
                     let ([x1, y1], [x2, y2]) = (d(b), d(c));
                     sum += 0.5 * (x1 * y2 - x2 * y1).abs() * texels;
@@ -219,6 +217,13 @@ pub fn texels(asset: &Asset) -> f64 {
         first += face.len();
     }
     sum
+}
+
+/// The texture coordinates of fanned triangle `k` (corners 0, `k + 1`, `k +
+/// 2`) of the face whose first corner is `first`, where all three have them.
+fn fan_texcoords(uv: &qm_io::TexCoords, first: usize, k: usize) -> Option<[[f32; 2]; 3]> {
+    let [a, b, c] = [first, first + k + 1, first + k + 2].map(|c| uv.get(c));
+    Some([a?, b?, c?])
 }
 
 /// The decoded base colour image of a material, if any.

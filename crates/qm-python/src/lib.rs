@@ -361,18 +361,19 @@ fn encode<'py>(
 #[pyfunction]
 fn decode(py: Python<'_>, data: &[u8], options: &Decoding) -> PyResult<Decoded> {
     let options = options.0;
-    let (decoded, flat, quads, colours) = py
+    let (decoded, flat, quads, colours, corners) = py
         .detach(|| {
             let d = qm::decode(data, &options)?;
             // The arrays' contents are made here too, without the GIL.
             let flat: Vec<f64> = d.mesh.positions.iter().flat_map(|p| p.to_array()).collect();
             let quads: Vec<u32> = d.mesh.faces().flatten().copied().collect();
             let colours = d.colours().map(|c| c.as_flattened().to_vec());
-            Ok::<_, qm::Error>((d, flat, quads, colours))
+            let corners = d.corner_texcoords();
+            Ok::<_, qm::Error>((d, flat, quads, colours, corners))
         })
         .map_err(to_py)?;
-    let texture = (decoded.texture().zip(decoded.corner_texcoords()))
-        .map(|(atlas, corners)| texture_arrays(py, atlas, corners));
+    let texture =
+        (decoded.texture().zip(corners)).map(|(atlas, corners)| texture_arrays(py, atlas, corners));
     let (texture, face_uvs) = texture.unzip();
     Ok(Decoded {
         vertices: rows(py, flat, 3).unbind(),

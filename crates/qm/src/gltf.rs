@@ -200,9 +200,11 @@ fn build(qm: &[u8], options: &GltfOptions) -> Result<(Value, Vec<u8>, Glb)> {
 /// vertex of several base quads split, one a quad); otherwise its colours
 /// as a linear `COLOR_0`.
 pub fn decoded_glb(decoded: &Decoded) -> Vec<u8> {
-    let (positions, quads) = decoded.raw.level_mesh();
-    let positions: Vec<f32> = (positions.iter())
+    let positions: Vec<f32> = (decoded.mesh.positions.iter())
         .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
+        .collect();
+    let quads: Vec<[u32; 4]> = (decoded.mesh.faces())
+        .map(|f| [f[0], f[1], f[2], f[3]])
         .collect();
     let triangles: Vec<u32> = (quads.iter())
         .flat_map(|&[a, b, c, d]| [a, b, c, a, c, d])
@@ -242,7 +244,10 @@ fn add_primitive(
         Some((_, t)) => {
             let gather = |values: &[f32]| -> Vec<f32> {
                 (t.vertices.iter())
-                    .flat_map(|&v| values[3 * v as usize..3 * v as usize + 3].to_vec())
+                    .flat_map(|&v| {
+                        let i = 3 * v as usize;
+                        [values[i], values[i + 1], values[i + 2]]
+                    })
                     .collect()
             };
             (gather(positions), gather(&normals), &t.triangles[..])

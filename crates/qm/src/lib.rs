@@ -244,23 +244,22 @@ fn detail_psnr(layout: &codec::qm_lift::Layout, colours: &[[u8; 3]]) -> f64 {
         let c = |i: usize, j: usize| colours[layout.sample(f, i, j) as usize].map(f64::from);
         for j in 0..=n {
             for i in 0..=n {
-                let neighbours = match (i % 2, j % 2) {
+                let mean = |ps: &[[f64; 3]]| -> [f64; 3] {
+                    std::array::from_fn(|k| ps.iter().map(|p| p[k]).sum::<f64>() / ps.len() as f64)
+                };
+                let predicted = match (i % 2, j % 2) {
                     (0, 0) => continue,
-                    (1, 0) => vec![c(i - 1, j), c(i + 1, j)],
-                    (0, 1) => vec![c(i, j - 1), c(i, j + 1)],
-                    _ => vec![
+                    (1, 0) => mean(&[c(i - 1, j), c(i + 1, j)]),
+                    (0, 1) => mean(&[c(i, j - 1), c(i, j + 1)]),
+                    _ => mean(&[
                         c(i - 1, j - 1),
                         c(i + 1, j - 1),
                         c(i - 1, j + 1),
                         c(i + 1, j + 1),
-                    ],
+                    ]),
                 };
                 let v = c(i, j);
-                for k in 0..3 {
-                    let mean =
-                        neighbours.iter().map(|p| p[k]).sum::<f64>() / neighbours.len() as f64;
-                    sum += (v[k] - mean).powi(2);
-                }
+                sum += (0..3).map(|k| (v[k] - predicted[k]).powi(2)).sum::<f64>();
                 count += 3;
             }
         }
@@ -378,14 +377,13 @@ impl Decoded {
         let atlas = self.texture()?;
         Some(atlas.corner_texcoords(self.raw.layout.face_count(), self.raw.level))
     }
-}
 
-impl Decoded {
     /// This decode as an asset, with its look: with a [`Decoded::texture`],
     /// texture coordinates at every face corner and one material whose
     /// base colour texture is the atlas (decoded, no file behind it);
-    /// otherwise its colours at the vertices, if any. What `qm distance`
-    /// compares a decode's colours with.
+    /// otherwise its colours at the vertices, if any: what
+    /// [`param::colour_distance`] compares with an input (as `cargo xtask
+    /// appearance` does).
     pub fn to_asset(&self) -> Asset {
         let mut asset = Asset::default();
         asset.mesh = self.mesh.clone();
@@ -435,23 +433,20 @@ pub fn write_decoded(path: impl AsRef<Path>, decoded: &Decoded) -> Result<()> {
     if format == Some(qm_io::Format::Glb) {
         return Ok(qm_io::write_bytes(path, &gltf::decoded_glb(decoded))?);
     }
-    let obj = format == Some(qm_io::Format::Obj);
-    match (
-        decoded.texture(),
-        decoded.corner_texcoords(),
-        decoded.colours(),
-    ) {
-        (Some(atlas), Some(corners), _) if obj => {
-            let texture = qm_io::OutputTexture {
-                width: atlas.width,
-                height: atlas.height,
-                texels: &atlas.texels,
-                corners: &corners,
-            };
-            Ok(qm_io::write_textured_mesh(path, &decoded.mesh, &texture)?)
-        }
-        (_, _, Some(colours)) => write_coloured_mesh(path, &decoded.mesh, colours),
-        _ => write_mesh(path, &decoded.mesh),
+    if let (Some(qm_io::Format::Obj), Some(atlas), Some(corners)) =
+        (format, decoded.texture(), decoded.corner_texcoords())
+    {
+        let texture = qm_io::OutputTexture {
+            width: atlas.width,
+            height: atlas.height,
+            texels: &atlas.texels,
+            corners: &corners,
+        };
+        return Ok(qm_io::write_textured_mesh(path, &decoded.mesh, &texture)?);
+    }
+    match decoded.colours() {
+        Some(colours) => write_coloured_mesh(path, &decoded.mesh, colours),
+        None => write_mesh(path, &decoded.mesh),
     }
 }
 
@@ -553,7 +548,8 @@ pub fn appearance_bytes(asset: &Asset) -> u64 {
 
 /// Bytes each colour sample finer than the geometry takes while it is
 /// sampled and coded: its position and colour, its lifting, trees and
-/// coder (measured about 110 on two textured controllers: docs/appearance.md).
+/// coder (measured 74 and 117 on two textured controllers:
+/// docs/appearance.md, "Memory and time").
 pub const FINER_COLOUR_BYTES_PER_SAMPLE: u64 = 128;
 
 /// [`prepare_reporting`] of `asset`'s mesh, with what its appearance holds
