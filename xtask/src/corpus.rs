@@ -197,10 +197,10 @@ fn cases(v: &Valid) -> Vec<Case> {
             "format version 0 is not supported",
         ),
         case(
-            "qm-version-6.qm",
-            "version byte 6, a version that does not exist yet (header checksum valid)",
-            v.with_header_raw(6, v.header_raw()),
-            "format version 6 is not supported",
+            "qm-version-7.qm",
+            "version byte 7, a version that does not exist yet (header checksum valid)",
+            v.with_header_raw(7, v.header_raw()),
+            "format version 7 is not supported",
         ),
         case(
             "qm-header-frames-12.qm",

@@ -82,7 +82,7 @@ before(async () => {
   cube = { file: path.join(cubes, 'cube.qm') };
   cube.bytes = compress('assets/quad/cc_cube.obj', cube.file);
   // Hostile files go beside the pages: qm serve checks its models at start.
-  for (const f of ['qm-bad-magic.qm', 'qm-cut-in-header.qm', 'qm-cut-in-base.qm', 'qm-base-bit-flipped.qm', 'qm-bomb-level-11.qm', 'qm-bomb-level-12.qm', 'qm-version-6.qm']) {
+  for (const f of ['qm-bad-magic.qm', 'qm-cut-in-header.qm', 'qm-cut-in-base.qm', 'qm-base-bit-flipped.qm', 'qm-bomb-level-11.qm', 'qm-bomb-level-12.qm', 'qm-version-7.qm']) {
     fs.copyFileSync(path.join(root, 'tests', 'corrupt', f), path.join(www, f));
   }
   fs.copyFileSync(spot.file, path.join(www, 'spot-static.qm'));
@@ -178,7 +178,7 @@ test('bad files reject with a clear QMError and the page keeps running', { timeo
     ['qm-cut-in-header.qm', 'truncated', /header/],
     ['qm-cut-in-base.qm', 'truncated', /header or base mesh/],
     ['qm-base-bit-flipped.qm', 'corrupt', /base mesh is corrupt/],
-    ['qm-version-6.qm', 'unsupported-version', /version 6/],
+    ['qm-version-7.qm', 'unsupported-version', /version 7/],
     ['qm-bomb-level-11.qm', 'memory', /memory/],
     ['qm-bomb-level-12.qm', 'limit', /above the limit/],
     ['no-such-file.qm', 'http', /404/],

@@ -242,7 +242,7 @@ test('bad input rejects with a QMError carrying a code and a clear message', asy
   const cases = [
     ['not-qm', new TextEncoder().encode('solid cube\nfacet normal 0 0 1\n')],
     ['not-qm', corrupt('qm-bad-magic.qm')],
-    ['unsupported-version', corrupt('qm-version-6.qm')],
+    ['unsupported-version', corrupt('qm-version-7.qm')],
     ['truncated', corrupt('qm-cut-in-header.qm')],
     ['truncated', corrupt('qm-cut-in-base.qm')],
     ['truncated', corrupt('qm-empty.qm')],

@@ -22,11 +22,15 @@
 //! splits them again. Such a base costs a few bits a triangle. Version 4
 //! flags the opposite vertex when it is the next one along the open edges
 //! beside the attached edge, which version 3 named by its distance back.
-//! What each version saved: docs/decisions/026-base-connectivity.md.
+//! Version 6 keeps every open edge ([`OpenEdges`]), names a used vertex by
+//! an open edge it ends, and learns each triangle's flags in the context of
+//! what the triangle before did. What each version saved:
+//! docs/decisions/026-base-connectivity.md.
 
 use qm_ezw::{BitReader, BitWriter, Context};
 use qm_lift::unsplit;
 
+use super::front::OpenEdges;
 use super::numbers::IntModel;
 
 /// How many of the vertices used last a face corner (version 2 on) or a
@@ -185,11 +189,13 @@ impl FaceModel {
     }
 }
 
-/// How many open edges a version 3 triangle may attach to, most recent
-/// first: the front of a traversal, bounded so that coding stays linear.
+/// How many open edges a version 3 to 5 triangle may attach to, most
+/// recent first: the front of a traversal, bounded so that coding stayed
+/// linear before [`OpenEdges`] counted places in a logarithm. Version 6
+/// keeps them all.
 const OPEN: usize = 256;
 
-/// Versions 3 and 4's coder of a split base's triangles, the same on both
+/// Versions 3 to 6's coder of a split base's triangles, the same on both
 /// sides.
 /// A triangle either attaches to an open edge (one used by one triangle so
 /// far), by its place among them, the corner where the edge starts, and the
@@ -198,85 +204,139 @@ const OPEN: usize = 256;
 /// of the [`RECENT`] corners used last by its place, else named outright.
 pub(super) struct TriangleModel {
     attached: Context,
-    place: IntModel,
+    /// The open edge's place, per outcome ([`OUTCOMES`]) of the triangle before
+    /// (version 6 on; one model before).
+    place: [IntModel; OUTCOMES],
     rotation: [Context; 2],
-    /// Version 4: whether an attached triangle's vertex is the end of the
-    /// open edge from the attached edge's end, or the start of the one
-    /// into its start (a triangle that closes a gap in the boundary).
-    beside: Option<[Context; 2]>,
-    /// Whether a vertex is new, for an attached triangle's and the others'.
-    new: [Context; 2],
+    /// Version 4 on: whether an attached triangle's vertex is the end of
+    /// the open edge from the attached edge's end, or the start of the one
+    /// into its start (a triangle that closes a gap in the boundary); per
+    /// outcome ([`OUTCOMES`]) of the triangle before from version 6 on.
+    beside: Option<[[Context; 2]; OUTCOMES]>,
+    /// Whether a vertex is new, for an attached triangle's (per
+    /// outcome ([`OUTCOMES`]) before, version 6 on) and the others'.
+    new: [[Context; 2]; OUTCOMES],
+    /// Version 6 on: whether a used vertex is an end of an open edge, which
+    /// one by the edge's place and a flag for its end.
+    front: Option<FrontModel>,
     recent: Context,
     recent_place: PlaceTree,
     named: IntModel,
     /// Directed edges used once so far, most recent first.
-    open: Vec<(u32, u32)>,
+    open: OpenEdges,
     /// The corners used last, most recent first.
     recents: Vec<u32>,
     /// Corners so far.
     corners: u32,
     /// Most corners the triangles may have.
     most: u32,
+    /// What the triangle before did ([`OTHER`] before the first; always 0
+    /// before version 6).
+    last: usize,
+    /// Whether the contexts follow the triangle before (version 6 on).
+    by_outcome: bool,
+}
+
+/// What a triangle did, the context of the next one's flags (format
+/// version 6): its vertex was the one [`TriangleModel`] tried first beside
+/// its edge, the second, a new one, or anything else (a used vertex named,
+/// or three vertices). On a regular or a revolved mesh the traversal
+/// repeats short patterns of these (Edgebreaker's C and R), which the
+/// contexts learn.
+const OUTCOMES: usize = 4;
+const AFTER: usize = 0;
+const BEFORE: usize = 1;
+const NEW: usize = 2;
+const OTHER: usize = 3;
+
+/// Version 6's naming of a used vertex by an open edge it ends: a vertex
+/// the triangles reach again lies on their front, mostly near the edge
+/// they attach to, where [`TriangleModel::named`]'s distance back in first
+/// use is long.
+struct FrontModel {
+    on: Context,
+    place: IntModel,
+    end: Context,
 }
 
 impl TriangleModel {
     pub(super) fn new(most: u32, version: u8) -> Self {
         TriangleModel {
             attached: Context::default(),
-            place: IntModel::new(),
+            place: std::array::from_fn(|_| IntModel::new()),
             rotation: [Context::default(); 2],
-            beside: (version >= 4).then_some([Context::default(); 2]),
-            new: [Context::default(); 2],
+            beside: (version >= 4).then_some([[Context::default(); 2]; OUTCOMES]),
+            new: [[Context::default(); 2]; OUTCOMES],
+            front: (version >= 6).then(|| FrontModel {
+                on: Context::default(),
+                place: IntModel::new(),
+                end: Context::default(),
+            }),
             recent: Context::default(),
             recent_place: PlaceTree::default(),
             named: IntModel::new(),
-            open: Vec::with_capacity(OPEN + 3),
+            open: OpenEdges::new((version < 6).then_some(OPEN)),
             recents: Vec::with_capacity(RECENT + 3),
             corners: 0,
             most,
+            last: if version >= 6 { OTHER } else { 0 },
+            by_outcome: version >= 6,
         }
     }
 
     pub(super) fn put(&mut self, w: &mut BitWriter, t: &[u32; 3]) {
-        let attach = self.open.iter().enumerate().find_map(|(place, &(a, b))| {
-            (0..3)
-                .find(|&i| t[i] == b && t[(i + 1) % 3] == a)
-                .map(|i| (place, i))
-        });
+        let attach = self.open.attach(t);
+        let last = self.last;
         w.encode(&mut self.attached, attach.is_some());
-        match attach {
+        let outcome = match attach {
             Some((place, i)) => {
-                self.place.put(w, place as i64);
+                self.place[last].put(w, place as i64);
                 w.encode(&mut self.rotation[0], i == 0);
                 if i != 0 {
                     w.encode(&mut self.rotation[1], i == 1);
                 }
                 let v = t[(i + 2) % 3];
                 let (after, before) = self.beside(place);
+                let mut outcome = None;
                 if let Some(beside) = &mut self.beside {
-                    for (k, candidate) in [after, before].into_iter().enumerate() {
-                        if let Some(c) = candidate {
-                            w.encode(&mut beside[k], v == c);
-                            if v == c {
-                                self.used(t);
-                                return;
-                            }
+                    for (k, candidate) in [(AFTER, after), (BEFORE, before)] {
+                        if let Some(c) = candidate
+                            && outcome.is_none()
+                        {
+                            w.encode(&mut beside[last][k], v == c);
+                            outcome = (v == c).then_some(k);
                         }
                     }
                 }
-                self.put_vertex(w, v, 0);
+                outcome.unwrap_or_else(|| self.put_vertex(w, v, 0))
             }
-            None => t.iter().for_each(|&v| self.put_vertex(w, v, 1)),
-        }
-        self.used(t);
+            None => {
+                t.iter().for_each(|&v| {
+                    self.put_vertex(w, v, 1);
+                });
+                OTHER
+            }
+        };
+        self.used(t, outcome);
     }
 
-    fn put_vertex(&mut self, w: &mut BitWriter, v: u32, kind: usize) {
+    /// Codes vertex `v` of an attached triangle (`kind` 0) or of one that
+    /// is not (1); the outcome ([`OUTCOMES`]) it makes.
+    fn put_vertex(&mut self, w: &mut BitWriter, v: u32, kind: usize) -> usize {
         let new = v == self.corners;
-        w.encode(&mut self.new[kind], new);
+        w.encode(&mut self.new[self.last][kind], new);
         if new {
             self.corners += 1;
-            return;
+            return NEW;
+        }
+        if let Some(front) = &mut self.front {
+            let on = self.open.touching(v);
+            w.encode(&mut front.on, on.is_some());
+            if let Some((place, end)) = on {
+                front.place.put(w, place as i64);
+                w.encode(&mut front.end, end);
+                return OTHER;
+            }
         }
         let place = self.recents.iter().position(|&u| u == v);
         w.encode(&mut self.recent, place.is_some());
@@ -284,14 +344,16 @@ impl TriangleModel {
             Some(i) => self.recent_place.put(w, i),
             None => self.named.put(w, (self.corners - 1 - v) as i64),
         }
+        OTHER
     }
 
     /// Triangle `t`; the error says what is wrong with it.
     pub(super) fn get(&mut self, r: &mut BitReader, t: usize) -> Result<[u32; 3], String> {
         let mut triangle = [0; 3];
-        if face_bit(r, &mut self.attached)? {
-            let place = self.place.get(r)?;
-            let Some(&(a, b)) = usize::try_from(place).ok().and_then(|p| self.open.get(p)) else {
+        let last = self.last;
+        let outcome = if face_bit(r, &mut self.attached)? {
+            let place = self.place[last].get(r)?;
+            let Some((a, b)) = usize::try_from(place).ok().and_then(|p| self.open.at(p)) else {
                 let open = self.open.len();
                 return Err(format!(
                     "triangle {t} attaches to open edge {place} of {open}"
@@ -309,40 +371,63 @@ impl TriangleModel {
             let (after, before) = self.beside(place as usize);
             let mut beside = None;
             if let Some(contexts) = &mut self.beside {
-                for (k, candidate) in [after, before].into_iter().enumerate() {
+                for (k, candidate) in [(AFTER, after), (BEFORE, before)] {
                     if let Some(c) = candidate
                         && beside.is_none()
-                        && face_bit(r, &mut contexts[k])?
+                        && face_bit(r, &mut contexts[last][k])?
                     {
-                        beside = Some(c);
+                        beside = Some((c, k));
                     }
                 }
             }
-            triangle[(i + 2) % 3] = match beside {
-                Some(c) => c,
+            let (v, outcome) = match beside {
+                Some(found) => found,
                 None => self.get_vertex(r, t, 0)?,
             };
+            triangle[(i + 2) % 3] = v;
+            outcome
         } else {
             for v in &mut triangle {
-                *v = self.get_vertex(r, t, 1)?;
+                *v = self.get_vertex(r, t, 1)?.0;
             }
-        }
-        self.used(&triangle);
+            OTHER
+        };
+        self.used(&triangle, outcome);
         Ok(triangle)
     }
 
-    fn get_vertex(&mut self, r: &mut BitReader, t: usize, kind: usize) -> Result<u32, String> {
-        if face_bit(r, &mut self.new[kind])? {
+    /// A vertex of an attached triangle (`kind` 0) or of one that is not
+    /// (1), and the outcome ([`OUTCOMES`]) it makes.
+    fn get_vertex(
+        &mut self,
+        r: &mut BitReader,
+        t: usize,
+        kind: usize,
+    ) -> Result<(u32, usize), String> {
+        if face_bit(r, &mut self.new[self.last][kind])? {
             if self.corners == self.most {
                 return Err(format!("triangle {t} has more than {} corners", self.most));
             }
             self.corners += 1;
-            return Ok(self.corners - 1);
+            return Ok((self.corners - 1, NEW));
+        }
+        if let Some(front) = &mut self.front
+            && face_bit(r, &mut front.on)?
+        {
+            let place = front.place.get(r)?;
+            let end = face_bit(r, &mut front.end)?;
+            return match usize::try_from(place).ok().and_then(|p| self.open.at(p)) {
+                Some((a, b)) => Ok((if end { b } else { a }, OTHER)),
+                None => Err(format!(
+                    "triangle {t} names a vertex of open edge {place} of {}",
+                    self.open.len()
+                )),
+            };
         }
         if face_bit(r, &mut self.recent)? {
             let i = self.recent_place.get(r)?;
             return match self.recents.get(i) {
-                Some(&u) => Ok(u),
+                Some(&u) => Ok((u, OTHER)),
                 None => Err(format!(
                     "triangle {t} names recent corner {i} of {}",
                     self.recents.len()
@@ -351,7 +436,7 @@ impl TriangleModel {
         }
         let back = self.named.get(r)?;
         match u32::try_from(back).ok().filter(|&b| b < self.corners) {
-            Some(back) => Ok(self.corners - 1 - back),
+            Some(back) => Ok((self.corners - 1 - back, OTHER)),
             None => Err(format!(
                 "triangle {t} names corner {back} back of {}",
                 self.corners
@@ -363,22 +448,20 @@ impl TriangleModel {
     /// most recent open edge from `b` and the start of the most recent one
     /// into `a` (the second left out when it is the first), the vertices
     /// version 4 tries before the others.
-    fn beside(&self, place: usize) -> (Option<u32>, Option<u32>) {
-        if self.beside.is_none() {
-            return (None, None);
+    fn beside(&mut self, place: usize) -> (Option<u32>, Option<u32>) {
+        match (&self.beside, self.open.at(place)) {
+            (Some(_), Some(edge)) => self.open.beside(edge),
+            _ => (None, None),
         }
-        let (a, b) = self.open[place];
-        let after = self.open.iter().find(|e| e.0 == b && e.1 != a).map(|e| e.1);
-        let before = (self.open.iter())
-            .find(|e| e.1 == a && e.0 != b)
-            .map(|e| e.0)
-            .filter(|&x| Some(x) != after);
-        (after, before)
     }
 
-    /// After triangle `t`: its corners are the most recent, and its edges
-    /// close the open edges they share or open anew.
-    fn used(&mut self, t: &[u32; 3]) {
+    /// After triangle `t`, whose vertex made `outcome`: its corners are
+    /// the most recent, and its edges close the open edges they share or
+    /// open anew.
+    fn used(&mut self, t: &[u32; 3], outcome: usize) {
+        if self.by_outcome {
+            self.last = outcome;
+        }
         for &v in t {
             if let Some(i) = self.recents.iter().position(|&u| u == v) {
                 self.recents.remove(i);
@@ -387,15 +470,8 @@ impl TriangleModel {
         }
         self.recents.truncate(RECENT);
         for i in 0..3 {
-            let (a, b) = (t[i], t[(i + 1) % 3]);
-            match self.open.iter().position(|&e| e == (b, a)) {
-                Some(p) => {
-                    self.open.remove(p);
-                }
-                None => self.open.insert(0, (a, b)),
-            }
+            self.open.close_or_open(t[i], t[(i + 1) % 3]);
         }
-        self.open.truncate(OPEN);
     }
 }
 

@@ -14,6 +14,7 @@
 //! [`VERSION`] and reads them all.
 
 mod connectivity;
+mod front;
 mod numbers;
 #[cfg(test)]
 mod tests;
@@ -33,8 +34,9 @@ pub(crate) use values::{SNAP_STEPS, corner_count, noise_bits, snap_split};
 /// split triangle mesh by its triangles, version 4 those triangles' vertices
 /// beside the edge they attach to by a flag, version 5 a split base's
 /// corners by the parallelograms the encoder chose among those across
-/// their known triangles.
-pub const VERSION: u8 = 5;
+/// their known triangles, version 6 a split base's triangles with every
+/// open edge kept and their flags in the context of the triangle before.
+pub const VERSION: u8 = 6;
 
 /// The oldest format version this build reads: the first published one.
 pub const OLDEST: u8 = 1;
