@@ -472,6 +472,7 @@ impl TriangleModel {
         for i in 0..3 {
             self.open.close_or_open(t[i], t[(i + 1) % 3]);
         }
+        self.open.cut();
     }
 }
 

@@ -167,7 +167,7 @@ impl OpenEdges {
     }
 
     /// After a triangle's edge `a b`: it closes the most recent open edge
-    /// `b a`, or opens anew.
+    /// `b a`, or opens anew (then [`Self::cut`]).
     pub(super) fn close_or_open(&mut self, a: u32, b: u32) {
         if let Some(stamps) = self.by_edge.get_mut(&(b, a))
             && let Some(s) = stamps.pop()
@@ -190,6 +190,11 @@ impl OpenEdges {
         self.by_edge.entry((a, b)).or_default().push(s);
         self.from.entry(a).or_default().push(s);
         self.into.entry(b).or_default().push(s);
+    }
+
+    /// Drops the oldest edges beyond the limit, if there is one: after a
+    /// triangle's three edges, as versions 3 to 5 did.
+    pub(super) fn cut(&mut self) {
         if let Some(limit) = self.limit {
             while self.len > limit {
                 while !self.alive[self.oldest] {
@@ -244,6 +249,7 @@ mod tests {
                     continue;
                 }
                 open.close_or_open(a, b);
+                open.cut();
                 match list.iter().position(|&e| e == (b, a)) {
                     Some(p) => {
                         list.remove(p);
