@@ -104,21 +104,33 @@ impl OpenEdges {
         self.stamp_at(place).map(|s| self.edges[s as usize])
     }
 
-    /// The most recent live stamp among `stamps` whose edge passes `keep`,
-    /// dropping the dead ones on the way.
-    fn latest(
-        stamps: Option<&mut Vec<u32>>,
-        alive: &[bool],
-        edges: &[(u32, u32)],
-        keep: impl Fn((u32, u32)) -> bool,
-    ) -> Option<u32> {
-        let stamps = stamps?;
-        stamps.retain(|&s| alive[s as usize]);
+    /// The most recent live stamp among `stamps` whose edge passes `keep`:
+    /// with a limit (versions 3 to 5, at most that many live edges) the
+    /// most recent that does, else (version 6) the most recent if it does.
+    /// Version 6 looks no further, so that a vertex with many open edges
+    /// (a hostile base's hub) costs no more than a few steps a triangle;
+    /// on a manifold base the edge it would skip, the twin of the edge
+    /// asked about, is never open.
+    fn latest(&mut self, from: bool, v: u32, keep: impl Fn((u32, u32)) -> bool) -> Option<u32> {
+        let lists = if from { &mut self.from } else { &mut self.into };
+        let stamps = lists.get_mut(&v)?;
+        let alive = &self.alive;
+        if self.limit.is_some() {
+            stamps.retain(|&s| alive[s as usize]);
+            let edges = &self.edges;
+            return stamps
+                .iter()
+                .rev()
+                .copied()
+                .find(|&s| keep(edges[s as usize]));
+        }
+        while stamps.last().is_some_and(|&s| !alive[s as usize]) {
+            stamps.pop();
+        }
         stamps
-            .iter()
-            .rev()
+            .last()
             .copied()
-            .find(|&s| keep(edges[s as usize]))
+            .filter(|&s| keep(self.edges[s as usize]))
     }
 
     /// The most recent open edge that triangle `t` shares (reversed), as
@@ -135,28 +147,22 @@ impl OpenEdges {
     }
 
     /// For open edge `a b`: the end of the most recent open edge from `b`
-    /// (not back to `a`), and the start of the most recent one into `a`
-    /// (not from `b`), the second left out when it is the first.
+    /// not back to `a`, and the start of the most recent one into `a` not
+    /// from `b` (version 6: of the most recent from `b` and into `a`, if
+    /// they are not), the second left out when it is the first.
     pub(super) fn beside(&mut self, (a, b): (u32, u32)) -> (Option<u32>, Option<u32>) {
-        let after = Self::latest(self.from.get_mut(&b), &self.alive, &self.edges, |e| {
-            e.1 != a
-        })
-        .map(|s| self.edges[s as usize].1);
-        let before = Self::latest(self.into.get_mut(&a), &self.alive, &self.edges, |e| {
-            e.0 != b
-        })
-        .map(|s| self.edges[s as usize].0)
-        .filter(|&x| Some(x) != after);
+        let after = (self.latest(true, b, |e| e.1 != a)).map(|s| self.edges[s as usize].1);
+        let before = (self.latest(false, a, |e| e.0 != b))
+            .map(|s| self.edges[s as usize].0)
+            .filter(|&x| Some(x) != after);
         (after, before)
     }
 
     /// The most recent open edge with `v` at an end: its place, and
     /// whether `v` is its end (else its start).
     pub(super) fn touching(&mut self, v: u32) -> Option<(usize, bool)> {
-        let all = |_| true;
-        let out = Self::latest(self.from.get_mut(&v), &self.alive, &self.edges, all);
-        let all = |_| true;
-        let inn = Self::latest(self.into.get_mut(&v), &self.alive, &self.edges, all);
+        let out = self.latest(true, v, |_| true);
+        let inn = self.latest(false, v, |_| true);
         let (stamp, end) = match (out, inn) {
             (Some(o), Some(i)) if i > o => (i, true),
             (Some(o), _) => (o, false),
@@ -270,8 +276,15 @@ mod tests {
                     assert_eq!(open.touching(v), want);
                 }
                 if let Some(&(a, b)) = list.first() {
-                    let after = list.iter().find(|e| e.0 == b && e.1 != a).map(|e| e.1);
-                    let before = (list.iter().find(|e| e.1 == a && e.0 != b))
+                    // Version 6 looks at the most recent edge alone.
+                    let most_recent = limit.is_none();
+                    let after = (list.iter())
+                        .find(|e| e.0 == b && (most_recent || e.1 != a))
+                        .filter(|e| e.1 != a)
+                        .map(|e| e.1);
+                    let before = (list.iter())
+                        .find(|e| e.1 == a && (most_recent || e.0 != b))
+                        .filter(|e| e.0 != b)
                         .map(|e| e.0)
                         .filter(|&y| Some(y) != after);
                     assert_eq!(open.beside((a, b)), (after, before));

@@ -384,6 +384,21 @@ fn corners_by_chosen_parallelograms_cost_less_in_version_5() {
     assert!(five.len() <= four.len() + 1);
 }
 
+/// A hub that 100,000 triangles share, each otherwise apart, keeps 200,000
+/// edges open at one vertex: version 6 looks at a vertex's most recent
+/// open edge alone, so such a base (a hostile file's, or a fan's) codes
+/// and decodes in steps a triangle, not in a search of the hub's edges
+/// (5 · 10^9 steps here).
+#[test]
+fn a_hub_of_open_edges_codes_in_steps() {
+    let triangles: Triangles = (0..100_000u32).map(|i| [0, 2 * i + 1, 2 * i + 2]).collect();
+    let split = split_triangles(&triangles);
+    let none = vec![[0; 3]; split.vertex_count as usize];
+    let bytes = encode(&split.faces, &none, 6, false);
+    let got = decode(&bytes, split.faces.len(), none.len(), 0, 6, false).unwrap();
+    assert_eq!(got.faces, split.faces);
+}
+
 fn damage(version: u8, faces: Vec<[u32; 4]>, values: Vec<[i32; 3]>) {
     let decode = |b: &[u8], f, v| decode(b, f, v, 0, version, false);
     let bytes = encode(&faces, &values, version, false);
