@@ -24,7 +24,7 @@
 //! beside the attached edge, which version 3 named by its distance back.
 //! Version 6 keeps every open edge ([`OpenEdges`]), names a used vertex by
 //! an open edge it ends, and learns each triangle's flags in the context of
-//! what the triangle before did. What each version saved:
+//! what the triangle before did, or the two before (the encoder's choice). What each version saved:
 //! docs/decisions/026-base-connectivity.md.
 
 use qm_ezw::{BitReader, BitWriter, Context};
@@ -204,18 +204,19 @@ const OPEN: usize = 256;
 /// of the [`RECENT`] corners used last by its place, else named outright.
 pub(super) struct TriangleModel {
     attached: Context,
-    /// The open edge's place, per outcome ([`OUTCOMES`]) of the triangle before
-    /// (version 6 on; one model before).
-    place: [IntModel; OUTCOMES],
+    /// The open edge's place, per outcome ([`OUTCOMES`]) of the triangle
+    /// or two before (version 6 on; one model before).
+    place: [IntModel; CONTEXTS],
     rotation: [Context; 2],
     /// Version 4 on: whether an attached triangle's vertex is the end of
     /// the open edge from the attached edge's end, or the start of the one
     /// into its start (a triangle that closes a gap in the boundary); per
-    /// outcome ([`OUTCOMES`]) of the triangle before from version 6 on.
-    beside: Option<[[Context; 2]; OUTCOMES]>,
+    /// outcome ([`OUTCOMES`]) of the triangle or two before from version 6
+    /// on.
+    beside: Option<[[Context; 2]; CONTEXTS]>,
     /// Whether a vertex is new, for an attached triangle's (per
     /// outcome ([`OUTCOMES`]) before, version 6 on) and the others'.
-    new: [[Context; 2]; OUTCOMES],
+    new: [[Context; 2]; CONTEXTS],
     /// Version 6 on: whether a used vertex is an end of an open edge, which
     /// one by the edge's place and a flag for its end.
     front: Option<FrontModel>,
@@ -230,20 +231,23 @@ pub(super) struct TriangleModel {
     corners: u32,
     /// Most corners the triangles may have.
     most: u32,
-    /// What the triangle before did ([`OTHER`] before the first; always 0
-    /// before version 6).
+    /// What the triangle before did, or the two before ([`OTHER`] before
+    /// the first; always 0 before version 6): the contexts' index.
     last: usize,
-    /// Whether the contexts follow the triangle before (version 6 on).
-    by_outcome: bool,
+    /// How many triangles before choose the contexts: none before version
+    /// 6, one or two (the encoder's choice, a flag) from version 6 on.
+    history: u8,
 }
 
-/// What a triangle did, the context of the next one's flags (format
-/// version 6): its vertex was the one [`TriangleModel`] tried first beside
+/// What a triangle did, the context of the next one's flags, alone or
+/// with the outcome before it (format version 6): its vertex was the one [`TriangleModel`] tried first beside
 /// its edge, the second, a new one, or anything else (a used vertex named,
 /// or three vertices). On a regular or a revolved mesh the traversal
 /// repeats short patterns of these (Edgebreaker's C and R), which the
 /// contexts learn.
 const OUTCOMES: usize = 4;
+/// Contexts of the outcomes of the two triangles before.
+const CONTEXTS: usize = OUTCOMES * OUTCOMES;
 const AFTER: usize = 0;
 const BEFORE: usize = 1;
 const NEW: usize = 2;
@@ -260,13 +264,17 @@ struct FrontModel {
 }
 
 impl TriangleModel {
-    pub(super) fn new(most: u32, version: u8) -> Self {
+    /// The coder of a base of at most `most` corners in format `version`,
+    /// its contexts chosen by the outcomes of the `history` triangles
+    /// before (1 or 2; ignored before version 6).
+    pub(super) fn new(most: u32, version: u8, history: u8) -> Self {
+        let history = if version >= 6 { history.clamp(1, 2) } else { 0 };
         TriangleModel {
             attached: Context::default(),
             place: std::array::from_fn(|_| IntModel::new()),
             rotation: [Context::default(); 2],
-            beside: (version >= 4).then_some([[Context::default(); 2]; OUTCOMES]),
-            new: [[Context::default(); 2]; OUTCOMES],
+            beside: (version >= 4).then_some([[Context::default(); 2]; CONTEXTS]),
+            new: [[Context::default(); 2]; CONTEXTS],
             front: (version >= 6).then(|| FrontModel {
                 on: Context::default(),
                 place: IntModel::new(),
@@ -279,8 +287,12 @@ impl TriangleModel {
             recents: Vec::with_capacity(RECENT + 3),
             corners: 0,
             most,
-            last: if version >= 6 { OTHER } else { 0 },
-            by_outcome: version >= 6,
+            last: match history {
+                0 => 0,
+                1 => OTHER,
+                _ => OTHER * OUTCOMES + OTHER,
+            },
+            history,
         }
     }
 
@@ -459,9 +471,11 @@ impl TriangleModel {
     /// the most recent, and its edges close the open edges they share or
     /// open anew.
     fn used(&mut self, t: &[u32; 3], outcome: usize) {
-        if self.by_outcome {
-            self.last = outcome;
-        }
+        self.last = match self.history {
+            0 => 0,
+            1 => outcome,
+            _ => (self.last % OUTCOMES) * OUTCOMES + outcome,
+        };
         for &v in t {
             if let Some(i) = self.recents.iter().position(|&u| u == v) {
                 self.recents.remove(i);

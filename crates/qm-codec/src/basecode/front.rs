@@ -2,12 +2,13 @@
 //! ([`OpenEdges`]): edges used by one triangle so far, listed most recent
 //! first, each named by its place in that list.
 //!
-//! Versions 3 to 5 keep the [`OPEN`](super::connectivity) most recent
-//! edges; version 6 keeps them all, since a traversal's front on a faceted
-//! or long mesh grows past any such bound and the triangles beyond it cost
-//! three named vertices each. Every operation costs a logarithm or a
-//! vertex's edges, not the list's length: places are counted by a Fenwick
-//! tree over the edges' insertion stamps.
+//! Versions 3 to 5 keep the 256 most recent edges; version 6 keeps them
+//! all, since a traversal's front on a faceted or long mesh grows past any
+//! such bound, and a triangle beyond it costs a vertex named by its
+//! distance back, or three. Places are counted by a Fenwick tree over the
+//! edges' insertion stamps, so an operation costs a logarithm (and, in
+//! versions 3 to 5, a search of a vertex's live edges, at most 256), not
+//! the list's length.
 
 use std::collections::HashMap;
 

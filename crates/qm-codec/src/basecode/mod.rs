@@ -35,7 +35,8 @@ pub(crate) use values::{SNAP_STEPS, corner_count, noise_bits, snap_split};
 /// beside the edge they attach to by a flag, version 5 a split base's
 /// corners by the parallelograms the encoder chose among those across
 /// their known triangles, version 6 a split base's triangles with every
-/// open edge kept and their flags in the context of the triangle before.
+/// open edge kept and their flags in the context of the one or two
+/// triangles before.
 pub const VERSION: u8 = 6;
 
 /// The oldest format version this build reads: the first published one.
@@ -73,7 +74,9 @@ pub(crate) fn encode(
 ) -> Vec<u8> {
     let split = split_of(faces, values.len(), version);
     let split = split.as_deref();
-    let plain = encode_choosing(faces, values, version, split, implied, Corners::Plain);
+    let history = split.map_or(1, |triangles| history(triangles, values.len(), version));
+    let coded = |corners| encode_choosing(faces, values, version, split, implied, corners, history);
+    let plain = coded(Corners::Plain);
     // Version 5 on: a split base's corners predicted by the parallelograms
     // the encoder names, in vertex order or in the order that gives them
     // the most, where that is shorter.
@@ -82,12 +85,31 @@ pub(crate) fn encode(
     }
     [Corners::Chosen, Corners::ChosenInOrder]
         .into_iter()
-        .map(|corners| encode_choosing(faces, values, version, split, implied, corners))
+        .map(coded)
         .fold(plain, |best, b| if b.len() < best.len() { b } else { best })
 }
 
+/// How many triangles before choose the contexts of a split base's
+/// `triangles` over `vertices` (format version 6 on): two where that codes
+/// them shorter, else one. Two learn a faceted part's patterns better (1
+/// to 3% off its base section), one learns faster on the remesher's bases
+/// of a thousand triangles (docs/decisions/026-base-connectivity.md).
+fn history(triangles: &[[u32; 3]], vertices: usize, version: u8) -> u8 {
+    if version < 6 {
+        return 1;
+    }
+    let length = |history| {
+        let mut w = BitWriter::new();
+        let mut model = TriangleModel::new(vertices as u32, version, history);
+        triangles.iter().for_each(|t| model.put(&mut w, t));
+        w.len_needed()
+    };
+    if length(2) < length(1) { 2 } else { 1 }
+}
+
 /// [`encode`] of a base that is the `split` of those triangles (or none),
-/// with its corners predicted as `corners` says.
+/// with its corners predicted as `corners` says and its triangles' contexts
+/// chosen by the `history` triangles before.
 fn encode_choosing(
     faces: &[[u32; 4]],
     values: &[[i32; 3]],
@@ -95,6 +117,7 @@ fn encode_choosing(
     split: Option<&[[u32; 3]]>,
     implied: bool,
     corners: Corners,
+    history: u8,
 ) -> Vec<u8> {
     let mut w = BitWriter::new();
     if version >= 3 {
@@ -106,9 +129,12 @@ fn encode_choosing(
             w.encode(&mut Context::default(), corners == Corners::ChosenInOrder);
         }
     }
+    if version >= 6 && split.is_some() {
+        w.encode(&mut Context::default(), history == 2);
+    }
     match split {
         Some(triangles) => {
-            let mut model = TriangleModel::new(values.len() as u32, version);
+            let mut model = TriangleModel::new(values.len() as u32, version, history);
             triangles.iter().for_each(|t| model.put(&mut w, t));
         }
         None => {
@@ -168,13 +194,19 @@ pub(crate) fn decode(
     } else {
         Corners::Plain
     };
+    let history = if version >= 6 && split && face_bit(&mut r, &mut Context::default())? {
+        2
+    } else {
+        1
+    };
     let (faces, triangles) = if split {
         if face_count % 3 != 0 {
             return Err(format!(
                 "{face_count} faces cannot be triangles split in three"
             ));
         }
-        let mut model = TriangleModel::new(vertex_count.min(u32::MAX as usize) as u32, version);
+        let most = vertex_count.min(u32::MAX as usize) as u32;
+        let mut model = TriangleModel::new(most, version, history);
         let mut triangles = Vec::with_capacity((face_count / 3).min(bytes.len()));
         for t in 0..face_count / 3 {
             triangles.push(model.get(&mut r, t)?);

@@ -327,6 +327,14 @@ fn triangles_cost_less_in_version_6() {
         );
         let got = decode(&six, split.faces.len(), none.len(), 0, 6, false).unwrap();
         assert_eq!(got.faces, split.faces, "{count} triangles");
+        // Contexts by one triangle before or by two: both come back.
+        let numbered = unsplit(&split.faces, split.vertex_count).unwrap();
+        for history in [1, 2] {
+            let (faces, tri) = (&split.faces, Some(&numbered[..]));
+            let bytes = encode_choosing(faces, &none, 6, tri, false, Corners::Plain, history);
+            let got = decode(&bytes, faces.len(), none.len(), 0, 6, false).unwrap();
+            assert_eq!(&got.faces, faces, "{count} triangles, history {history}");
+        }
     }
 }
 
@@ -365,7 +373,7 @@ fn corners_by_chosen_parallelograms_cost_less_in_version_5() {
     let triangles = unsplit(&faces, values.len() as u32).unwrap();
     let corners = corner_count(&triangles);
     for mode in [Corners::Plain, Corners::Chosen, Corners::ChosenInOrder] {
-        let bytes = encode_choosing(&faces, &values, 5, Some(&triangles), true, mode);
+        let bytes = encode_choosing(&faces, &values, 5, Some(&triangles), true, mode, 1);
         let got = decode(&bytes, faces.len(), values.len(), 0, 5, true).unwrap();
         assert_eq!(got.faces, faces);
         assert_eq!(got.values[..corners], values[..corners], "{mode:?}");
