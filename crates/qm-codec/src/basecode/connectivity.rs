@@ -214,8 +214,8 @@ pub(super) struct TriangleModel {
     /// outcome ([`OUTCOMES`]) of the triangle or two before from version 6
     /// on.
     beside: Option<[[Context; 2]; CONTEXTS]>,
-    /// Whether a vertex is new, for an attached triangle's (per
-    /// outcome ([`OUTCOMES`]) before, version 6 on) and the others'.
+    /// Whether a vertex is new, for an attached triangle's and the
+    /// others', per outcome ([`OUTCOMES`]) before from version 6 on.
     new: [[Context; 2]; CONTEXTS],
     /// Version 6 on: whether a used vertex is an end of an open edge, which
     /// one by the edge's place and a flag for its end.
