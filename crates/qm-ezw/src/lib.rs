@@ -33,4 +33,4 @@ pub use output::{Decoded, Encoded, Nonzero, Progress};
 pub use params::{BaseBits, Coef, Contexts, MAX_BASE_BITS, StreamParams, Weighting};
 pub use passes::{Checkpoint, decode, decode_resuming, encode, encode_prefix};
 pub use qm_tree::{self, ZeroTree};
-pub use range::{BitReader, BitWriter, Context, ReaderSnapshot, Truncated};
+pub use range::{BitReader, BitWriter, Context, ReaderSnapshot, SLOWEST, Truncated};

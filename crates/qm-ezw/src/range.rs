@@ -17,6 +17,10 @@ const PROB_BITS: u32 = 16;
 const ONE: u32 = 1 << PROB_BITS;
 const TOP: u32 = 1 << 24;
 
+/// The slowest adaptation rate of a context, 1/2^`SLOWEST`, unless a coder
+/// says otherwise ([`BitWriter::with_slowest_rate`]).
+pub const SLOWEST: u32 = 6;
+
 /// An adaptive binary model: the probability of a 0, adapting quickly at
 /// first and more slowly as it sees more symbols.
 #[derive(Clone, Copy, Debug)]
@@ -48,10 +52,11 @@ impl Context {
         -(if bit { 1.0 - p0 } else { p0 }).log2()
     }
 
+    /// Learns `bit`: adaptation rate 1/2^shift, 1/4 for the first symbols,
+    /// down to 1/2^`slowest`.
     #[inline]
-    fn update(&mut self, bit: bool) {
-        // Adaptation rate 1/2^shift: 1/4 for the first symbols, down to 1/64.
-        let shift = 2 + (self.seen as u32 >> 2).min(4);
+    fn update(&mut self, bit: bool, slowest: u32) {
+        let shift = (2 + (self.seen as u32 >> 2)).min(slowest);
         self.seen = self.seen.saturating_add(1);
         let p = self.p0 as u32;
         let p = if bit {
@@ -73,6 +78,7 @@ pub struct BitWriter {
     pending: u64,
     started: bool,
     out: Vec<u8>,
+    slowest: u32,
 }
 
 impl Default for BitWriter {
@@ -91,7 +97,16 @@ impl BitWriter {
             pending: 0,
             started: false,
             out: Vec::new(),
+            slowest: SLOWEST,
         }
+    }
+
+    /// This encoder with its contexts' adaptation rate falling to
+    /// 1/2^`slowest` at the slowest (the decoder must say the same:
+    /// [`BitReader::with_slowest_rate`]); [`SLOWEST`] by default.
+    pub fn with_slowest_rate(mut self, slowest: u32) -> Self {
+        self.slowest = slowest;
+        self
     }
 
     /// Encodes `bit` with the adaptive model `ctx`.
@@ -104,7 +119,7 @@ impl BitWriter {
         } else {
             self.range = bound;
         }
-        ctx.update(bit);
+        ctx.update(bit, self.slowest);
         while self.range < TOP {
             self.range <<= 8;
             self.shift_low();
@@ -178,6 +193,7 @@ pub struct BitReader<'a> {
     data: &'a [u8],
     pos: usize,
     truncated: bool,
+    slowest: u32,
 }
 
 impl<'a> BitReader<'a> {
@@ -189,11 +205,20 @@ impl<'a> BitReader<'a> {
             data,
             pos: 0,
             truncated: false,
+            slowest: SLOWEST,
         };
         for _ in 0..4 {
             reader.code = (reader.code << 8) | reader.next_byte() as u32;
         }
         reader
+    }
+
+    /// This decoder with its contexts' adaptation rate falling to
+    /// 1/2^`slowest` at the slowest, as its encoder's
+    /// ([`BitWriter::with_slowest_rate`]).
+    pub fn with_slowest_rate(mut self, slowest: u32) -> Self {
+        self.slowest = slowest;
+        self
     }
 
     #[inline]
@@ -227,7 +252,7 @@ impl<'a> BitReader<'a> {
         } else {
             self.range = bound;
         }
-        ctx.update(bit);
+        ctx.update(bit, self.slowest);
         while self.range < TOP {
             self.range <<= 8;
             self.code = (self.code << 8) | self.next_byte() as u32;
@@ -254,6 +279,7 @@ impl<'a> BitReader<'a> {
             data,
             pos: at.pos.min(data.len()),
             truncated: false,
+            slowest: SLOWEST,
         }
     }
 

@@ -89,6 +89,28 @@ pub(crate) fn encode(
         .fold(plain, |best, b| if b.len() < best.len() { b } else { best })
 }
 
+/// The slowest adaptation rate of the section's contexts in format
+/// `version`, as a power of two: from version 6 on 1/32, not the stream's
+/// 1/64. A base section is thousands of numbers, not millions: its
+/// contexts gain more from learning fast than from settling (0.1 to 3%
+/// off the base sections measured; the whole stream at 1/32 lost 0.2 to
+/// 0.5%; docs/decisions/026-base-connectivity.md).
+fn slowest_rate(version: u8) -> u32 {
+    if version >= 6 {
+        BASE_SLOWEST
+    } else {
+        qm_ezw::SLOWEST
+    }
+}
+
+/// [`slowest_rate`] from version 6 on.
+const BASE_SLOWEST: u32 = 5;
+
+/// A writer of the section in format `version`.
+fn writer(version: u8) -> BitWriter {
+    BitWriter::new().with_slowest_rate(slowest_rate(version))
+}
+
 /// How many triangles before choose the contexts of a split base's
 /// `triangles` over `vertices` (format version 6 on): two where that codes
 /// them shorter, else one. Two learn a faceted part's patterns better (1
@@ -99,7 +121,7 @@ fn history(triangles: &[[u32; 3]], vertices: usize, version: u8) -> u8 {
         return 1;
     }
     let length = |history| {
-        let mut w = BitWriter::new();
+        let mut w = writer(version);
         let mut model = TriangleModel::new(vertices as u32, version, history);
         triangles.iter().for_each(|t| model.put(&mut w, t));
         w.len_needed()
@@ -119,7 +141,7 @@ fn encode_choosing(
     corners: Corners,
     history: u8,
 ) -> Vec<u8> {
-    let mut w = BitWriter::new();
+    let mut w = writer(version);
     if version >= 3 {
         w.encode(&mut Context::default(), split.is_some());
     }
@@ -184,7 +206,7 @@ pub(crate) fn decode(
     implied: bool,
 ) -> Result<BaseSection, String> {
     let range = (i32::MIN >> low_bits) as i64..=(i32::MAX >> low_bits) as i64;
-    let mut r = BitReader::new(bytes);
+    let mut r = BitReader::new(bytes).with_slowest_rate(slowest_rate(version));
     let split = version >= 3 && face_bit(&mut r, &mut Context::default())?;
     let corners = if version >= 5 && split && face_bit(&mut r, &mut Context::default())? {
         match face_bit(&mut r, &mut Context::default())? {

@@ -301,11 +301,11 @@ fn damage_gives_errors_not_panics() {
 }
 
 /// Version 6 keeps every open edge, names a vertex met again by an open
-/// edge it ends, and learns each triangle's flags after what the triangle
-/// before did. Depth first, a 96 x 96 grid's 18,432 triangles cost 8,624
-/// bytes in version 5 and 566 in version 6 (its front outgrows version 5's
-/// 256 open edges); a fan-capped cylinder of 600 segments 1,353 and 52, one
-/// of 64 segments 54 and 37. All come back.
+/// edge it ends, and learns each triangle's flags after what the one or two
+/// triangles before did. Depth first, a 96 x 96 grid's 18,432 triangles
+/// cost 8,624 bytes in version 5 and 473 in version 6 (its front outgrows
+/// version 5's 256 open edges); a fan-capped cylinder of 600 segments
+/// 1,353 and 32, one of 64 segments 54 and 27. All come back.
 #[test]
 fn triangles_cost_less_in_version_6() {
     let grid = depth_first(&qm_shapes::grid_triangles(96, 96));
