@@ -987,17 +987,11 @@ fn a_texture_finer_than_the_mesh_comes_back_as_a_texture() {
     std::fs::write(d.join("waves.png"), qm::io::png_bytes(size, size, &texels)).unwrap();
     std::fs::write(d.join("cube.mtl"), "newmtl w\nmap_Kd waves.png\n").unwrap();
     let mut obj = String::from("mtllib cube.mtl\nusemtl w\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n");
-    for k in 0..8 {
-        obj += &format!("v {} {} {}\n", k & 1, (k >> 1) & 1, k >> 2);
+    let (positions, faces) = qm_shapes::cube();
+    for p in positions {
+        obj += &format!("v {} {} {}\n", p.x, p.y, p.z);
     }
-    for f in [
-        [1, 3, 4, 2],
-        [5, 6, 8, 7],
-        [1, 2, 6, 5],
-        [3, 7, 8, 4],
-        [1, 5, 7, 3],
-        [2, 4, 8, 6],
-    ] {
+    for f in faces.iter().map(|f| f.map(|v| v + 1)) {
         obj += &format!("f {}/1 {}/2 {}/3 {}/4\n", f[0], f[1], f[2], f[3]);
     }
     std::fs::write(d.join("cube.obj"), obj).unwrap();

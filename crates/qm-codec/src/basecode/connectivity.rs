@@ -323,9 +323,9 @@ impl TriangleModel {
                 outcome.unwrap_or_else(|| self.put_vertex(w, v, 0))
             }
             None => {
-                t.iter().for_each(|&v| {
+                for &v in t {
                     self.put_vertex(w, v, 1);
-                });
+                }
                 OTHER
             }
         };
