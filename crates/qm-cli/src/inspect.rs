@@ -127,7 +127,7 @@ pub fn info(input: &Path, levels: bool, json: bool) -> Result<(), Failure> {
             geometry_stream_bytes: colour.runs.iter().map(|r| r[0] as u64).sum(),
             runs: colour.runs.len(),
             planes: colour.planes,
-            level: h.level as u32 + colour.finer as u32,
+            level: container::colour_level(h),
         }),
         levels,
     };

@@ -224,14 +224,8 @@ pub(crate) fn encode(
     );
     cuts.insert(0, 0);
     let mut measure = Measure::new(layout, &lifting, &header, colours);
-    let errors: Vec<f64> = cuts
-        .iter()
-        .map(|&cut| measure.at(&encoded.bytes[..cut]))
-        .collect();
-    let curve = cuts
-        .into_iter()
-        .zip(errors)
-        .map(|(cut, e)| (cut, e + floor))
+    let curve = (cuts.into_iter())
+        .map(|cut| (cut, measure.at(&encoded.bytes[..cut]) + floor))
         .collect();
     Ok(ColourCode {
         bytes: encoded.bytes,

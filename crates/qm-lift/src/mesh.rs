@@ -270,21 +270,13 @@ mod tests {
                     assert!(q(4 * i + 1, 4 * j).distance(quarter) < 1e-12);
                     let side = p(i, j).lerp(p(i, j + 1), 0.75);
                     assert!(q(4 * i, 4 * j + 3).distance(side) < 1e-12);
-                    let below = (p(i, j) + p(i + 1, j) + p(i + 1, j + 1)) / 3.0;
-                    let above = (p(i, j) + p(i + 1, j + 1) + p(i, j + 1)) / 3.0;
-                    let on_triangles = |x: f64, y: f64| {
-                        // (x, y) in the cell: inside triangle 0-1-2 for x > y.
-                        let (p0, p1, p2, p3) = (p(i, j), p(i + 1, j), p(i + 1, j + 1), p(i, j + 1));
-                        if x >= y {
-                            p0 + x * (p1 - p0) + y * (p2 - p1)
-                        } else {
-                            p0 + x * (p2 - p3) + y * (p3 - p0)
-                        }
-                    };
-                    assert!(on_triangles(2.0 / 3.0, 1.0 / 3.0).distance(below) < 1e-12);
-                    assert!(on_triangles(1.0 / 3.0, 2.0 / 3.0).distance(above) < 1e-12);
-                    assert!(q(4 * i + 3, 4 * j + 1).distance(on_triangles(0.75, 0.25)) < 1e-12);
-                    assert!(q(4 * i + 1, 4 * j + 2).distance(on_triangles(0.25, 0.5)) < 1e-12);
+                    // Inside the triangles a-b-c (below the diagonal) and
+                    // a-c-d (above it), by their barycentric weights.
+                    let (a, b, c, d) = (p(i, j), p(i + 1, j), p(i + 1, j + 1), p(i, j + 1));
+                    let below = 0.25 * a + 0.5 * b + 0.25 * c;
+                    assert!(q(4 * i + 3, 4 * j + 1).distance(below) < 1e-12);
+                    let above = 0.5 * a + 0.25 * c + 0.25 * d;
+                    assert!(q(4 * i + 1, 4 * j + 2).distance(above) < 1e-12);
                 }
             }
         }

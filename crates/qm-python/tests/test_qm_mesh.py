@@ -225,8 +225,18 @@ def test_a_texture_finer_than_the_mesh_comes_with_its_coordinates(cube_qm):
     stream.feed(data)
     m = stream.mesh()
     assert np.array_equal(m.texture, d.texture) and np.array_equal(m.face_uvs, d.face_uvs)
-    cut = qm_mesh.decode(data[: len(data) // 3])
-    assert cut.texture is None or cut.texture.size <= d.texture.size
+    # A prefix: what decode() gives is what the streaming decoder shows
+    # after the same bytes, and no larger than the whole file's texture.
+    prefix = data[: len(data) // 3]
+    cut = qm_mesh.decode(prefix)
+    partial = qm_mesh.StreamDecoder()
+    partial.feed(prefix)
+    shown = partial.mesh()
+    assert (cut.texture is None) == (shown.texture is None)
+    if cut.texture is not None:
+        assert np.array_equal(cut.texture, shown.texture)
+        assert np.array_equal(cut.face_uvs, shown.face_uvs)
+        assert cut.texture.size <= d.texture.size
     # A file without finer colours has none.
     assert qm_mesh.decode(cube_qm).texture is None and qm_mesh.decode(cube_qm).face_uvs is None
 

@@ -14,9 +14,9 @@ use qm_codec::{
 };
 use wasm_bindgen::prelude::*;
 
-/// The browser decoder's memory limit: 512 MiB, an eighth of the largest
-/// WebAssembly heap, so that a hostile file cannot crash the tab.
-pub const WASM_MAX_MEMORY: u64 = 512 << 20;
+/// The browser decoder's memory limit
+/// ([`qm_codec::container::BROWSER_DECODE_MEMORY`]).
+pub const WASM_MAX_MEMORY: u64 = qm_codec::container::BROWSER_DECODE_MEMORY;
 
 /// A [`StreamDecoder`] and the buffers of its last refinement.
 #[derive(Clone, Debug)]

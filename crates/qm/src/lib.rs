@@ -304,9 +304,9 @@ fn finer_colour_fits(finer: u32, most: f64, layout: &codec::qm_lift::Layout) -> 
 }
 
 /// The most memory a decoder's estimate of a file may reach for its colour
-/// to go finer than its geometry: 512 MiB, the browser decoder's limit (so
+/// to go finer than its geometry: the browser decoder's limit, 512 MiB (so
 /// that every qm decoder with its default limit takes the file).
-pub const FINER_COLOUR_DECODE_MEMORY: u64 = 512 << 20;
+pub const FINER_COLOUR_DECODE_MEMORY: u64 = codec::container::BROWSER_DECODE_MEMORY;
 
 /// A decoded `.qm` stream or prefix of one.
 #[derive(Clone, Debug)]
@@ -433,8 +433,9 @@ pub fn write_decoded(path: impl AsRef<Path>, decoded: &Decoded) -> Result<()> {
     if format == Some(qm_io::Format::Glb) {
         return Ok(qm_io::write_bytes(path, &gltf::decoded_glb(decoded))?);
     }
-    if let (Some(qm_io::Format::Obj), Some(atlas), Some(corners)) =
-        (format, decoded.texture(), decoded.corner_texcoords())
+    if format == Some(qm_io::Format::Obj)
+        && let Some(atlas) = decoded.texture()
+        && let Some(corners) = decoded.corner_texcoords()
     {
         let texture = qm_io::OutputTexture {
             width: atlas.width,

@@ -51,7 +51,9 @@ function fallbackUpdate(geometry, ext) {
 // than the geometry) as their map. A material that does not show it yet is
 // cloned once (as GLTFLoader does for primitives with COLOR_0), since other
 // meshes may share it; `clones` maps each original to its clone, which later
-// updates change in place (a stream may go from colours to a texture).
+// updates change in place (a stream may go from colours to a texture). Each
+// stream keeps its own map: two primitives that share a material show their
+// own textures.
 function showLook(objects, geometry, clones) {
   const map = geometry.userData.qmTexture ?? null;
   const vertexColors = !map && geometry.hasAttribute('color');
@@ -59,12 +61,11 @@ function showLook(objects, geometry, clones) {
   for (const object of objects) {
     const one = (m) => {
       if (!m) return m;
-      const own = m.userData.qmClone === true;
+      const own = [...clones.values()].includes(m);
       if (!own && (m.map ?? null) === map && m.vertexColors === vertexColors) return m;
       let c = own ? m : clones.get(m);
       if (!c) {
         c = m.clone();
-        c.userData.qmClone = true;
         clones.set(m, c);
       }
       if ((c.map ?? null) !== map || c.vertexColors !== vertexColors) {
@@ -90,8 +91,6 @@ export class GLTFQMExtension {
     this.streamOptions = streamOptions;
     this.streams = [];
     this.targets = [];
-    // Each material cloned to show the .qm's look, by its original.
-    this.clones = new Map();
     let settle;
     this.done = new Promise((resolve, reject) => {
       settle = { resolve, reject };
@@ -148,12 +147,14 @@ export class GLTFQMExtension {
       return fallbackUpdate(geometry, ext);
     }
     const maxBytes = bytesFor(ext, rest);
+    // This stream's materials cloned to show its look, by their originals.
+    const clones = new Map();
     const options = {
       ...rest,
       geometry,
       showFrom: ext.fallback?.bytes ?? 0,
       onUpdate: (u) => {
-        showLook(objects, geometry, this.clones);
+        showLook(objects, geometry, clones);
         onUpdate?.(u);
         this.onPrimitiveUpdate?.({ ...u, meshIndex, primitiveIndex });
       },

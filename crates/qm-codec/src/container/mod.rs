@@ -170,6 +170,11 @@ pub const FINER_COLOUR: u32 = 0x80;
 /// Most levels of colour beyond the geometry's.
 pub const MAX_FINER_COLOUR: u8 = 6;
 
+/// The browser decoder's memory limit: 512 MiB, an eighth of the largest
+/// WebAssembly heap, so that a hostile file cannot crash the tab. Encoders
+/// keep files with colour finer than their geometry within it.
+pub const BROWSER_DECODE_MEMORY: u64 = 512 << 20;
+
 /// Every flag bit with a meaning.
 const KNOWN_FLAGS: u32 = BASE_BITS_MASK | IMPLIED_SPLIT | COLOUR | FINER_COLOUR;
 
