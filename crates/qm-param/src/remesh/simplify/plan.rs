@@ -121,13 +121,16 @@ impl Simplifier<'_> {
     /// The fan from ring position `ui`: per ring edge `i` not at `u`,
     /// `(i, [u, w_i, w_i+1])`.
     pub(super) fn fan(ring: &Ring, ui: usize) -> Vec<(usize, [usize; 3])> {
+        Self::fan_triangles(ring, ui).map(|t| (t[1], t)).collect()
+    }
+
+    /// The triangles of [`Self::fan`] alone, without a list.
+    fn fan_triangles(ring: &Ring, ui: usize) -> impl Iterator<Item = [usize; 3]> {
         let k = ring.verts.len();
-        (0..ring.faces.len())
-            .filter_map(|i| {
-                let j = (i + 1) % k;
-                (i != ui && j != ui).then_some((i, [ui, i, j]))
-            })
-            .collect()
+        (0..ring.faces.len()).filter_map(move |i| {
+            let j = (i + 1) % k;
+            (i != ui && j != ui).then_some([ui, i, j])
+        })
     }
 
     /// The side of ring edge `i` for a crease collapse into ring position
@@ -202,7 +205,9 @@ impl Simplifier<'_> {
         } else {
             (0..ring.verts.len()).collect()
         };
-        let v_neighbours = self.neighbours(v);
+        // `v`'s neighbours: its ring, which holds each once.
+        let mut v_neighbours = ring.verts.clone();
+        v_neighbours.sort_unstable();
         let ring_area: f64 = ring
             .faces
             .iter()
@@ -255,6 +260,15 @@ impl Simplifier<'_> {
             if !ring.closed && ui != 0 && ui != ring.verts.len() - 1 {
                 continue;
             }
+            // The cost at the best shape (quality 1) bounds it from below
+            // where it is not negative: a candidate that cannot beat the
+            // best so far is not shaped (docs/decisions/033-exact-speedups.md).
+            if let Some(b) = &best {
+                let least = cost(u, 1.0);
+                if least >= 0.0 && least >= b.cost {
+                    continue;
+                }
+            }
             let lined;
             let flat = match bi {
                 Some(bi) if ring.closed => {
@@ -266,9 +280,8 @@ impl Simplifier<'_> {
                 }
                 _ => &plain,
             };
-            let quality = Self::fan(&ring, ui)
-                .iter()
-                .map(|&(_, t)| self.new_quality(&ring, flat, t, ring_normal))
+            let quality = Self::fan_triangles(&ring, ui)
+                .map(|t| self.new_quality(&ring, flat, t, ring_normal))
                 .try_fold(f64::INFINITY, |q, t| t.map(|t| q.min(t)));
             let Some(quality) = quality.filter(|&q| q >= floor) else {
                 continue;

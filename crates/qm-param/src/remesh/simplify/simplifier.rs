@@ -67,17 +67,6 @@ impl Simplifier<'_> {
         ring(v, &self.vfaces[v as usize], &self.faces)
     }
 
-    pub(super) fn neighbours(&self, v: u32) -> Vec<u32> {
-        let faces = &self.vfaces[v as usize];
-        let mut out = Vec::with_capacity(2 * faces.len() + 1);
-        for &f in faces {
-            out.extend(self.faces[f as usize].into_iter().filter(|&w| w != v));
-        }
-        out.sort_unstable();
-        out.dedup();
-        out
-    }
-
     /// Whether `u` and `w` share a live triangle (an edge).
     pub(super) fn adjacent(&self, u: u32, w: u32) -> bool {
         self.vfaces[u as usize]
