@@ -263,11 +263,9 @@ impl Simplifier<'_> {
             // The cost at the best shape (quality 1) bounds it from below
             // where it is not negative: a candidate that cannot beat the
             // best so far is not shaped (docs/decisions/033-exact-speedups.md).
-            if let Some(b) = &best {
-                let least = cost(u, 1.0);
-                if least >= 0.0 && least >= b.cost {
-                    continue;
-                }
+            let least = cost(u, 1.0);
+            if least >= 0.0 && best.as_ref().is_some_and(|b| least >= b.cost) {
+                continue;
             }
             let lined;
             let flat = match bi {
@@ -286,7 +284,8 @@ impl Simplifier<'_> {
             let Some(quality) = quality.filter(|&q| q >= floor) else {
                 continue;
             };
-            let cost = cost(u, quality);
+            // The same division as `cost(u, quality)`.
+            let cost = least / quality.min(1.0);
             if best
                 .as_ref()
                 .is_some_and(|b| cost.partial_cmp(&b.cost) != Some(Ordering::Less))
