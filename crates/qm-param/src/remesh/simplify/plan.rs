@@ -205,7 +205,8 @@ impl Simplifier<'_> {
         } else {
             (0..ring.verts.len()).collect()
         };
-        // `v`'s neighbours: its ring, which holds each once.
+        // `v`'s neighbours: its ring, which holds each once (the clean-up
+        // leaves no face holding a vertex twice, and removals make none).
         let mut v_neighbours = ring.verts.clone();
         v_neighbours.sort_unstable();
         let ring_area: f64 = ring
@@ -261,8 +262,9 @@ impl Simplifier<'_> {
                 continue;
             }
             // The cost at the best shape (quality 1) bounds it from below
-            // where it is not negative: a candidate that cannot beat the
-            // best so far is not shaped (docs/decisions/033-exact-speedups.md).
+            // where it is not negative (a quality is never negative and is
+            // capped at 1): a candidate that cannot beat the best so far is
+            // not shaped (docs/decisions/033-exact-speedups.md).
             let least = cost(u, 1.0);
             if least >= 0.0 && best.as_ref().is_some_and(|b| least >= b.cost) {
                 continue;

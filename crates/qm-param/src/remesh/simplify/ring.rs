@@ -13,7 +13,7 @@ pub(in crate::remesh) struct Ring {
     pub closed: bool,
 }
 
-/// Valences up to which [`ring`] scans its spokes instead of sorting
+/// Faces around a vertex up to which [`ring`] scans its spokes instead of sorting
 /// them, with no lists but the ring's own.
 const SMALL: usize = 16;
 
