@@ -175,6 +175,7 @@ pub struct ReaderSnapshot {
     code: u32,
     range: u32,
     pos: usize,
+    slowest: u32,
 }
 
 impl ReaderSnapshot {
@@ -268,6 +269,7 @@ impl<'a> BitReader<'a> {
             code: self.code,
             range: self.range,
             pos: self.pos,
+            slowest: self.slowest,
         })
     }
 
@@ -279,7 +281,7 @@ impl<'a> BitReader<'a> {
             data,
             pos: at.pos.min(data.len()),
             truncated: false,
-            slowest: SLOWEST,
+            slowest: at.slowest,
         }
     }
 
@@ -372,6 +374,28 @@ mod tests {
         let mut r = BitReader::new(&bytes);
         for &(c, b) in &syms {
             assert_eq!(r.decode(&mut ctx[c]).unwrap(), b);
+        }
+    }
+
+    /// A reader resumed from a snapshot goes on at its adaptation rate.
+    #[test]
+    fn a_resumed_reader_keeps_its_rate() {
+        let syms = symbols(20_000);
+        let mut ctx = [Context::default(); 4];
+        let mut w = BitWriter::new().with_slowest_rate(3);
+        for &(c, b) in &syms {
+            w.encode(&mut ctx[c], b);
+        }
+        let bytes = w.finish();
+        let mut ctx = [Context::default(); 4];
+        let mut r = BitReader::new(&bytes).with_slowest_rate(3);
+        let (head, tail) = syms.split_at(syms.len() / 2);
+        for &(c, b) in head {
+            assert_eq!(r.decode(&mut ctx[c]), Ok(b));
+        }
+        let mut r = BitReader::resume(&bytes, r.snapshot().expect("not truncated"));
+        for &(c, b) in tail {
+            assert_eq!(r.decode(&mut ctx[c]), Ok(b));
         }
     }
 }

@@ -220,23 +220,24 @@ def test_a_texture_finer_than_the_mesh_comes_with_its_coordinates(cube_qm):
     assert np.allclose(texel, np.round(texel), atol=1e-2)
     assert (texel > 0).all() and (texel < [w - 1, h - 1]).all()
     assert all(len({tuple(p) for p in np.round(q)}) == 4 for q in texel)
-    # The streaming decoder gives the same; a prefix a texture no larger.
+    # The streaming decoder gives the same; a prefix the same atlas, less refined.
     stream = qm_mesh.StreamDecoder()
     stream.feed(data)
     m = stream.mesh()
     assert np.array_equal(m.texture, d.texture) and np.array_equal(m.face_uvs, d.face_uvs)
     # A prefix: what decode() gives is what the streaming decoder shows
-    # after the same bytes, and no larger than the whole file's texture.
+    # after the same bytes: the atlas of the whole file (its size is the
+    # header's), with colours not yet refined.
     prefix = data[: len(data) // 3]
     cut = qm_mesh.decode(prefix)
     partial = qm_mesh.StreamDecoder()
     partial.feed(prefix)
     shown = partial.mesh()
-    assert (cut.texture is None) == (shown.texture is None)
-    if cut.texture is not None:
-        assert np.array_equal(cut.texture, shown.texture)
-        assert np.array_equal(cut.face_uvs, shown.face_uvs)
-        assert cut.texture.size <= d.texture.size
+    assert cut.texture is not None and shown.texture is not None
+    assert np.array_equal(cut.texture, shown.texture)
+    assert np.array_equal(cut.face_uvs, shown.face_uvs)
+    assert cut.texture.shape == d.texture.shape
+    assert not np.array_equal(cut.texture, d.texture)
     # A file without finer colours has none.
     assert qm_mesh.decode(cube_qm).texture is None and qm_mesh.decode(cube_qm).face_uvs is None
 

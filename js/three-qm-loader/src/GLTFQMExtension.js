@@ -51,9 +51,9 @@ function fallbackUpdate(geometry, ext) {
 // than the geometry) as their map. A material that does not show it yet is
 // cloned once (as GLTFLoader does for primitives with COLOR_0), since other
 // meshes may share it; `clones` maps each original to its clone, which later
-// updates change in place (a stream may go from colours to a texture). Each
-// stream keeps its own map: two primitives that share a material show their
-// own textures.
+// updates change in place (a stream may go from colours to a texture), and
+// each clone to itself. Each stream keeps its own map: two primitives that
+// share a material show their own textures.
 function showLook(objects, geometry, clones) {
   const map = geometry.userData.qmTexture ?? null;
   const vertexColors = !map && geometry.hasAttribute('color');
@@ -61,12 +61,13 @@ function showLook(objects, geometry, clones) {
   for (const object of objects) {
     const one = (m) => {
       if (!m) return m;
-      const own = [...clones.values()].includes(m);
-      if (!own && (m.map ?? null) === map && m.vertexColors === vertexColors) return m;
-      let c = own ? m : clones.get(m);
+      // A clone maps to itself.
+      let c = clones.get(m);
+      if (c !== m && (m.map ?? null) === map && m.vertexColors === vertexColors) return m;
       if (!c) {
         c = m.clone();
         clones.set(m, c);
+        clones.set(c, c);
       }
       if ((c.map ?? null) !== map || c.vertexColors !== vertexColors) {
         c.map = map;

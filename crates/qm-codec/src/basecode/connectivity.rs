@@ -24,8 +24,8 @@
 //! beside the attached edge, which version 3 named by its distance back.
 //! Version 6 keeps every open edge ([`OpenEdges`]), names a used vertex by
 //! an open edge it ends, and learns each triangle's flags in the context of
-//! what the triangle before did, or the two before (the encoder's choice). What each version saved:
-//! docs/decisions/026-base-connectivity.md.
+//! what the triangle before did, or the two before (the encoder's choice).
+//! What each version saved: docs/decisions/026-base-connectivity.md.
 
 use qm_ezw::{BitReader, BitWriter, Context};
 use qm_lift::unsplit;
@@ -240,9 +240,9 @@ pub(super) struct TriangleModel {
 }
 
 /// What a triangle did, the context of the next one's flags, alone or
-/// with the outcome before it (format version 6): its vertex was the one [`TriangleModel`] tried first beside
-/// its edge, the second, a new one, or anything else (a used vertex named,
-/// or three vertices). On a regular or a revolved mesh the traversal
+/// with the outcome before it (format version 6): its vertex was the one
+/// [`TriangleModel`] tried first beside its edge, the second, a new one, or
+/// anything else (a used vertex named, or three vertices). On a regular or a revolved mesh the traversal
 /// repeats short patterns of these (Edgebreaker's C and R), which the
 /// contexts learn.
 const OUTCOMES: usize = 4;

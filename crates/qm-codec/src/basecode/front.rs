@@ -31,6 +31,9 @@ pub(super) struct OpenEdges {
     /// as they are met.
     from: HashMap<u32, Vec<u32>>,
     into: HashMap<u32, Vec<u32>>,
+    /// Stamps [`Self::latest`] has looked at, for a test of its cost.
+    #[cfg(test)]
+    looked: usize,
 }
 
 impl OpenEdges {
@@ -45,6 +48,8 @@ impl OpenEdges {
             by_edge: HashMap::new(),
             from: HashMap::new(),
             into: HashMap::new(),
+            #[cfg(test)]
+            looked: 0,
         }
     }
 
@@ -117,6 +122,10 @@ impl OpenEdges {
         let stamps = lists.get_mut(&v)?;
         let alive = &self.alive;
         if self.limit.is_some() {
+            #[cfg(test)]
+            {
+                self.looked += stamps.len();
+            }
             stamps.retain(|&s| alive[s as usize]);
             let edges = &self.edges;
             return stamps
@@ -127,6 +136,14 @@ impl OpenEdges {
         }
         while stamps.last().is_some_and(|&s| !alive[s as usize]) {
             stamps.pop();
+            #[cfg(test)]
+            {
+                self.looked += 1;
+            }
+        }
+        #[cfg(test)]
+        {
+            self.looked += 1;
         }
         stamps
             .last()
@@ -299,6 +316,35 @@ mod tests {
                 if t[2] != a && t[2] != b {
                     assert_eq!(open.attach(&t), want);
                 }
+            }
+        }
+    }
+
+    /// A hub holding 200,000 open edges costs version 6 a few stamps a
+    /// question, as its edges open and close; versions 3 to 5, which search
+    /// a vertex's live edges, look at every one kept.
+    #[test]
+    fn a_hub_costs_steps_not_searches() {
+        let n = 100_000u32;
+        for limit in [None, Some(256)] {
+            let mut open = OpenEdges::new(limit);
+            for i in 1..=n {
+                open.close_or_open(0, 2 * i - 1);
+                open.close_or_open(2 * i, 0);
+                open.cut();
+            }
+            open.looked = 0;
+            let asked = 2_000;
+            for i in 1..=asked {
+                assert!(open.touching(0).is_some());
+                let _ = open.beside((2 * (n - i % 100), 0));
+                // One of the hub's edges closes, as a triangle would close it.
+                open.close_or_open(2 * (n - i) + 1, 0);
+            }
+            let per_question = open.looked as f64 / (3 * asked) as f64;
+            match limit {
+                None => assert!(per_question < 4.0, "{per_question} stamps a question"),
+                Some(_) => assert!(per_question > 50.0, "{per_question} stamps a question"),
             }
         }
     }

@@ -393,10 +393,10 @@ fn corners_by_chosen_parallelograms_cost_less_in_version_5() {
 }
 
 /// A hub that 100,000 triangles share, each otherwise apart, keeps 200,000
-/// edges open at one vertex: version 6 looks at a vertex's most recent
-/// open edge alone, so such a base (a hostile file's, or a fan's) codes
-/// and decodes in steps a triangle, not in a search of the hub's edges
-/// (5 · 10^9 steps here).
+/// edges open at one vertex: such a base (a hostile file's, or a fan's)
+/// codes and decodes (in steps a triangle, not in a search of the hub's
+/// edges, 5 · 10^9 steps here: `front`'s `a_hub_costs_steps_not_searches`
+/// counts them).
 #[test]
 fn a_hub_of_open_edges_codes_in_steps() {
     let triangles: Triangles = (0..100_000u32).map(|i| [0, 2 * i + 1, 2 * i + 2]).collect();

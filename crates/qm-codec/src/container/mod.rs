@@ -3,7 +3,7 @@
 //! | bytes | content |
 //! |---|---|
 //! | 4 | magic `89 51 4D 0A` (`\x89QM\n`) |
-//! | 1 | format version ([`VERSION`], 6; versions 1 to 5 are read too) |
+//! | 1 | format version ([`VERSION`]; versions from [`OLDEST`] on are read too) |
 //! | 2 | header length `H`, little endian |
 //! | `H` | [`Header`]'s fields, then its [`Header::holds`] (byte by byte: `docs/format.md`) |
 //! | 4 | CRC-32 of everything above |

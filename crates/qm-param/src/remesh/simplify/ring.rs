@@ -13,8 +13,8 @@ pub(in crate::remesh) struct Ring {
     pub closed: bool,
 }
 
-/// Faces around a vertex up to which [`ring`] scans its spokes instead of sorting
-/// them, with no lists but the ring's own.
+/// Faces around a vertex up to which [`ring`] scans its spokes instead of
+/// sorting them, with no lists but the ring's own.
 const SMALL: usize = 16;
 
 /// The 1-ring of `v` in a manifold triangle mesh, from `faces`, the indices
