@@ -323,9 +323,14 @@ fn valid_coloured_qm() -> Vec<u8> {
         .map(|p| [p.x, p.y, p.z].map(|x| (128.0 + 120.0 * (9.0 * x).sin()) as u8))
         .collect();
     let options = qm::EncodeOptions::DEFAULT.with_bits(10);
-    let bytes = qm::codec::compress_coloured(&prepared.mesh, &colours, &options, None)
-        .unwrap()
-        .bytes;
+    let bytes = qm::codec::compress_coloured(
+        &prepared.mesh,
+        qm::codec::Colours::new(&colours),
+        &options,
+        None,
+    )
+    .unwrap()
+    .bytes;
     let header = qm::codec::container::read(&bytes, &qm::Limits::DEFAULT)
         .unwrap()
         .header;

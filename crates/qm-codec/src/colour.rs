@@ -92,6 +92,43 @@ pub fn from_value(v: Coord) -> [u8; 3] {
     [r, g, b].map(|x| x.clamp(0, 255) as u8)
 }
 
+/// Colours to code beside the geometry ([`crate::compress_coloured`]): one
+/// 8-bit sRGB colour per sample of the mesh's level or of a finer one (up
+/// to six levels finer), and, where the caller measured it, what the colour
+/// those samples draw misses of the colour they were taken from.
+#[derive(Clone, Copy, Debug)]
+#[non_exhaustive]
+pub struct Colours<'a> {
+    /// One colour per sample.
+    pub samples: &'a [[u8; 3]],
+    /// The mean squared error per channel, in 8-bit levels, of the
+    /// samples' colour drawn over the mesh (interpolated across each
+    /// triangle of the finest quads) against the colour of the surface they
+    /// were sampled from, area-weighted: the error the colour stream can
+    /// never remove, however long. With it, the colour stream ends at the
+    /// first pass whose error against the samples is a quarter of it (the
+    /// passes after would buy less than 1 dB against that surface); without
+    /// it, colours at the mesh's level are coded losslessly and finer ones
+    /// estimate it (the error of dropping their finest level of details).
+    pub missed: Option<f64>,
+}
+
+impl<'a> Colours<'a> {
+    /// `samples`, with nothing measured.
+    pub const fn new(samples: &'a [[u8; 3]]) -> Self {
+        Colours {
+            samples,
+            missed: None,
+        }
+    }
+
+    /// These colours, their [`Colours::missed`] measured.
+    pub const fn with_missed(mut self, missed: f64) -> Self {
+        self.missed = Some(missed);
+        self
+    }
+}
+
 /// A coded colour stream and its measured errors.
 #[derive(Clone, Debug)]
 pub(crate) struct ColourCode {
@@ -125,12 +162,9 @@ pub(crate) fn finer_levels(layout: &Layout, count: usize) -> Result<u32> {
 
 /// Codes `colours`, one per sample of `layout` or of a level of its base
 /// up to [`MAX_FINER_COLOUR`] finer ([`finer_levels`]), lifted with
-/// `update`.
-pub(crate) fn encode(
-    layout: &Layout,
-    update: UpdateRule,
-    colours: &[[u8; 3]],
-) -> Result<ColourCode> {
+/// `update`, as far as [`Colours::missed`] says.
+pub(crate) fn encode(layout: &Layout, update: UpdateRule, given: Colours) -> Result<ColourCode> {
+    let colours = given.samples;
     let finer = finer_levels(layout, colours.len())?;
     let fine;
     let layout = if finer == 0 {
@@ -167,20 +201,22 @@ pub(crate) fn encode(
         whole: true,
         rounded: false,
     };
-    // The floor: what the lossless stream keeps (rounding), and what the
-    // samples miss between them, taken as what dropping the finest level
-    // of details would cost.
-    let floor = ROUNDING_ERROR
-        + if layout.level() == 0 {
-            0.0
-        } else {
+    // The floor: what the samples miss of the surface's colour, measured
+    // by the caller, or else what the lossless stream keeps (rounding) and
+    // what the samples miss between them, taken as what dropping the
+    // finest level of details would cost.
+    let floor = match given.missed {
+        Some(missed) => missed.max(ROUNDING_ERROR),
+        None if layout.level() == 0 => ROUNDING_ERROR,
+        None => {
             let mut coarse = data.clone();
             for k in tree.level_range(layout.level()) {
                 coarse[tree.samples()[k] as usize] = [0; 3];
             }
             lifting.inverse(&mut coarse);
-            mean_squared(&coarse, colours)
-        };
+            ROUNDING_ERROR + mean_squared(&coarse, colours)
+        }
+    };
     let encode = |max_passes| {
         qm_ezw::encode(
             &tree,
@@ -203,10 +239,11 @@ pub(crate) fn encode(
         runs: Vec::new(),
         finer: finer as u8,
     };
-    // Colours finer than the geometry are a texture resampled: the stream
-    // ends at the first pass whose error is a quarter of what the samples
-    // miss, beyond which a pass buys less than 1 dB against the texture.
-    if finer > 0 {
+    // Colours whose floor is measured, or finer than the geometry (a
+    // texture resampled): the stream ends at the first pass whose error is
+    // a quarter of what the samples miss, beyond which a pass buys less
+    // than 1 dB against the surface's colour.
+    if finer > 0 || given.missed.is_some() {
         let mut measure = Measure::new(layout, &lifting, &header, colours);
         let stop = (encoded.pass_ends.iter())
             .position(|&end| measure.at(&encoded.bytes[..end]) <= floor / 4.0);

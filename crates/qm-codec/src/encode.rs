@@ -12,11 +12,12 @@
 use qm_ezw::{Contexts, Weighting, ZeroTree};
 use qm_lift::{Coord, Layout, Lifting, Quantizer, SemiRegularMesh, UpdateRule};
 
+use crate::colour::{self, Colours};
 use crate::compressed::Compressed;
 use crate::container::{self, BaseSection, Header, Limits};
 use crate::frames::{self, Frames};
 use crate::holds::{self, Probes};
-use crate::{Error, Result, basecode, colour};
+use crate::{Error, Result, basecode};
 
 /// Default extra weight, in bits, of the normal component of the details:
 /// it moves the surface, the tangential ones mostly slide samples along it
@@ -130,13 +131,14 @@ pub fn compress_probed(
     compress_all(mesh, None, options, probes)
 }
 
-/// [`compress_probed`] with one 8-bit sRGB colour per sample of `mesh`,
-/// coded in a stream of its own that the file interleaves with the
-/// geometry's as their measured gains say (`docs/appearance.md`); the
-/// probes (built when `None`) also measure the geometry for that.
+/// [`compress_probed`] with one 8-bit sRGB colour per sample of `mesh` (or
+/// of a finer level of its base), coded in a stream of its own that the
+/// file interleaves with the geometry's as their measured gains say
+/// (`docs/appearance.md`), as far as [`Colours::missed`] says; the probes
+/// (built when `None`) also measure the geometry for that.
 pub fn compress_coloured(
     mesh: &SemiRegularMesh,
-    colours: &[[u8; 3]],
+    colours: Colours<'_>,
     options: &EncodeOptions,
     probes: Option<&Probes>,
 ) -> Result<Compressed> {
@@ -146,7 +148,7 @@ pub fn compress_coloured(
 /// [`compress_probed`], with colours or not.
 fn compress_all(
     mesh: &SemiRegularMesh,
-    colours: Option<&[[u8; 3]]>,
+    colours: Option<Colours<'_>>,
     options: &EncodeOptions,
     probes: Option<&Probes>,
 ) -> Result<Compressed> {
@@ -375,7 +377,7 @@ fn compress_with(
 fn with_colour(
     compressed: Compressed,
     layout: &Layout,
-    colours: &[[u8; 3]],
+    colours: Colours<'_>,
     update: UpdateRule,
     probes: &Probes,
     measured: &holds::Measured,

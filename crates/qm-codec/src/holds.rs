@@ -91,41 +91,73 @@ struct Probe {
     weight: f64,
 }
 
+/// A point of a semi-regular mesh's surface where it is measured: inside
+/// one of the two triangles (`a b c`, `a c d`) each finest quad is drawn
+/// with, at one of three interior points (the degree-2 rule, exact for the
+/// mean square of a value linear over the triangle).
+#[derive(Clone, Copy, Debug)]
+pub struct SurfacePoint {
+    /// The triangle's samples.
+    pub corners: [u32; 3],
+    /// The point's barycentric coordinates in it.
+    pub weights: [f64; 3],
+    /// The point, in the mesh's coordinates times the scale asked for.
+    pub point: DVec3,
+    /// Unit normal of the triangle.
+    pub normal: DVec3,
+    /// The area the point stands for (scaled as `point` squared).
+    pub weight: f64,
+}
+
+/// The points [`Probes`] measure `mesh` at, its coordinates times `scale`
+/// (a power of two keeps them exact): three in each triangle of the finest
+/// quads, of every `k`-th quad beyond [`MAX_PROBES`] points, each standing
+/// for `k` times a third of its triangle's area.
+pub fn surface_points(mesh: &SemiRegularMesh, scale: f64) -> Vec<SurfacePoint> {
+    let layout = mesh.layout();
+    let quads = layout.quads(layout.level());
+    let per_quad = 2 * WEIGHTS.len();
+    let stride = (per_quad * quads.len()).div_ceil(MAX_PROBES).max(1);
+    let p = |s: u32| mesh.positions()[s as usize] * scale;
+    (quads.par_iter().step_by(stride))
+        .flat_map_iter(|&[a, b, c, d]| {
+            [[a, b, c], [a, c, d]].into_iter().flat_map(move |corners| {
+                let [p0, p1, p2] = corners.map(p);
+                let cross = (p1 - p0).cross(p2 - p0);
+                let weight = 0.5 * cross.length() * stride as f64 / WEIGHTS.len() as f64;
+                WEIGHTS.map(|weights| SurfacePoint {
+                    corners,
+                    weights,
+                    point: weights[0] * p0 + weights[1] * p1 + weights[2] * p2,
+                    normal: cross.normalize_or_zero(),
+                    weight,
+                })
+            })
+        })
+        .collect()
+}
+
 impl Probes {
     /// Probes at three points of each of the finest quads' two triangles
     /// of `mesh` (of every `k`-th quad beyond [`MAX_PROBES`]), their feet
     /// at `foot` of each point (the closest point of the input surface).
     pub fn new(mesh: &SemiRegularMesh, foot: impl Fn(DVec3) -> DVec3 + Sync) -> Self {
-        let layout = mesh.layout();
-        let quads = layout.quads(layout.level());
-        let per_quad = 2 * WEIGHTS.len();
-        let stride = (per_quad * quads.len()).div_ceil(MAX_PROBES).max(1);
         let scale = qm_lift::unit_scale(mesh.positions());
-        let p = |s: u32| mesh.positions()[s as usize] * scale;
         let foot = &foot;
-        let points = (quads.par_iter().step_by(stride))
-            .flat_map_iter(|&[a, b, c, d]| {
-                [[a, b, c], [a, c, d]].into_iter().flat_map(move |corners| {
-                    let [p0, p1, p2] = corners.map(p);
-                    let cross = (p1 - p0).cross(p2 - p0);
-                    let weight = 0.5 * cross.length() * stride as f64 / WEIGHTS.len() as f64;
-                    WEIGHTS.map(|weights| {
-                        let at = weights[0] * p0 + weights[1] * p1 + weights[2] * p2;
-                        Probe {
-                            corners,
-                            weights,
-                            foot: foot(at / scale) * scale,
-                            normal: cross.normalize_or_zero(),
-                            weight,
-                        }
-                    })
-                })
+        let points = surface_points(mesh, scale)
+            .into_par_iter()
+            .map(|p| Probe {
+                corners: p.corners,
+                weights: p.weights,
+                foot: foot(p.point / scale) * scale,
+                normal: p.normal,
+                weight: p.weight,
             })
             .collect();
         Probes {
             points,
             scale,
-            samples: layout.sample_count(),
+            samples: mesh.layout().sample_count(),
         }
     }
 

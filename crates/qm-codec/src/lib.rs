@@ -37,13 +37,14 @@ mod tests;
 
 pub use atlas::Atlas;
 pub use basecode::coded_base_values;
+pub use colour::Colours;
 pub use compressed::Compressed;
 pub use container::{DEFAULT_MAX_MEMORY, Limits};
 pub use decode::{DecodeOptions, DecodeStatus, Decoder, Decompressed, decompress};
 pub use encode::{EncodeOptions, compress, compress_coloured, compress_probed};
 pub use error::{Error, Result};
 pub use frames::{AUTO_CUTS, AUTO_MIN_GAIN_DB, Frames};
-pub use holds::Probes;
+pub use holds::{Probes, SurfacePoint, surface_points};
 pub use levels::{DEFAULT_TOLERANCE_DB, Estimate, LevelChoice};
 pub use qm_ezw::{self, Contexts, Weighting};
 pub use qm_lift::ErrorKind;

@@ -16,7 +16,7 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use qm_codec::qm_lift::synthetic::bumpy_sphere;
-use qm_codec::{EncodeOptions, compress_coloured};
+use qm_codec::{Colours, EncodeOptions, compress_coloured};
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -43,7 +43,8 @@ fn main() -> ExitCode {
             })
         })
         .collect();
-    let encoded = match compress_coloured(&mesh, &rgb, &EncodeOptions::DEFAULT, None) {
+    let encoded = match compress_coloured(&mesh, Colours::new(&rgb), &EncodeOptions::DEFAULT, None)
+    {
         Ok(e) => e,
         Err(e) => {
             eprintln!("error: {out}: {e}");

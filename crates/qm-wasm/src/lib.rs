@@ -653,6 +653,12 @@ mod tests {
         assert_eq!(error_code(&e), "memory");
     }
 
+    /// The file of `mesh` with `rgb`, coded as the browser encoder codes it.
+    fn coloured_file(mesh: &qm_codec::qm_lift::SemiRegularMesh, rgb: &[[u8; 3]]) -> Vec<u8> {
+        let colours = qm_codec::Colours::new(rgb);
+        (qm_codec::compress_coloured(mesh, colours, &EncodeOptions::DEFAULT, None).unwrap()).bytes
+    }
+
     /// A coloured sphere pushed in pieces: at every refinement one colour
     /// per vertex, the native decoder's at the same bytes and level; at the
     /// end (finest level) the input's colours exactly.
@@ -663,9 +669,7 @@ mod tests {
         let rgb: Vec<[u8; 3]> = (0..mesh.positions().len())
             .map(|s| [s as u8, (s * 7 / 3) as u8, 255 - (s % 200) as u8])
             .collect();
-        let bytes = qm_codec::compress_coloured(&mesh, &rgb, &EncodeOptions::DEFAULT, None)
-            .unwrap()
-            .bytes;
+        let bytes = coloured_file(&mesh, &rgb);
         let plain = sphere_file();
         for options in [DecodeOptions::FINEST, DecodeOptions::default()] {
             let mut inc = Buffers::new(options);
@@ -706,9 +710,7 @@ mod tests {
         let rgb: Vec<[u8; 3]> = (fine.positions().iter())
             .map(|p| [p.x, p.y, p.z].map(|x| (128.0 + 120.0 * (5.0 * x).sin()) as u8))
             .collect();
-        let bytes = qm_codec::compress_coloured(&mesh, &rgb, &EncodeOptions::DEFAULT, None)
-            .unwrap()
-            .bytes;
+        let bytes = coloured_file(&mesh, &rgb);
         let mut inc = Buffers::new(DecodeOptions::default());
         let mut textured = 0;
         for chunk in bytes.chunks(61) {

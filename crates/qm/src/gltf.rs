@@ -497,9 +497,14 @@ mod tests {
         let colours: Vec<[u8; 3]> = (0..mesh.positions().len())
             .map(|s| [(s % 256) as u8, 200, (s / 7 % 256) as u8])
             .collect();
-        let qm = crate::codec::compress_coloured(&mesh, &colours, &EncodeOptions::DEFAULT, None)
-            .unwrap()
-            .bytes;
+        let qm = crate::codec::compress_coloured(
+            &mesh,
+            crate::codec::Colours::new(&colours),
+            &EncodeOptions::DEFAULT,
+            None,
+        )
+        .unwrap()
+        .bytes;
         let glb = to_glb(&qm, &GltfOptions::default()).unwrap();
         let (json, bin) = chunks(&glb.bytes);
         let attributes = &json["meshes"][0]["primitives"][0]["attributes"];

@@ -212,8 +212,12 @@ pub fn encode_prepared_asset(
     };
     let mut finer = finer_colour_levels(texels, layout);
     if finer == 0 {
+        // Colour at the samples: the stream goes as far as what they miss
+        // of the surface's colour, measured, is worth.
         let colours = surface.colours_at(prepared.mesh.positions());
-        return encode_with(prepared, &asset.mesh, Some(&colours), options);
+        let missed = colour_missed(&prepared.mesh, &colours, &surface);
+        let colours = codec::Colours::new(&colours).with_missed(missed);
+        return encode_with(prepared, &asset.mesh, Some(colours), options);
     }
     let (mut colours, mut fine) = sample(finer)?;
     // A sharp texture: finer while what the samples miss of it stays
@@ -224,7 +228,43 @@ pub fn encode_prepared_asset(
         finer += 1;
         (colours, fine) = sample(finer)?;
     }
-    encode_with(prepared, &asset.mesh, Some(&colours), options)
+    // A texture's detail: what its samples miss is estimated by the codec
+    // (docs/decisions/037-texture-as-finer-colour.md).
+    encode_with(
+        prepared,
+        &asset.mesh,
+        Some(codec::Colours::new(&colours)),
+        options,
+    )
+}
+
+/// What `colours`, one per sample of `mesh`, drawn over the triangles of
+/// its finest quads, miss of `surface`'s colour: the mean squared error
+/// per 8-bit channel, area-weighted, at the points where the encoder
+/// measures the geometry ([`codec::surface_points`]).
+fn colour_missed(
+    mesh: &SemiRegularMesh,
+    colours: &[[u8; 3]],
+    surface: &qm_param::ColourSurface,
+) -> f64 {
+    let scale = lift::unit_scale(mesh.positions());
+    let points = codec::surface_points(mesh, scale);
+    let at: Vec<_> = points.iter().map(|p| p.point / scale).collect();
+    let (sum, weight) = (points.iter().zip(surface.colours_at(&at))).fold(
+        (0.0, 0.0),
+        |(sum, weight), (p, truth)| {
+            let drawn = |k: usize| -> f64 {
+                (p.corners.iter().zip(p.weights))
+                    .map(|(&c, w)| w * f64::from(colours[c as usize][k]))
+                    .sum()
+            };
+            let error: f64 = (0..3)
+                .map(|k| (drawn(k) - f64::from(truth[k])).powi(2))
+                .sum();
+            (sum + p.weight * error / 3.0, weight + p.weight)
+        },
+    );
+    if weight > 0.0 { sum / weight } else { 0.0 }
 }
 
 /// The colour PSNR, in dB, below which a texture's samples go one level
@@ -583,7 +623,7 @@ pub fn encode_prepared(
 fn encode_with(
     prepared: &Prepared,
     input: &PolyMesh,
-    colours: Option<&[[u8; 3]]>,
+    colours: Option<codec::Colours<'_>>,
     options: &EncodeOptions,
 ) -> Result<Encoded> {
     let mesh = &prepared.mesh;
@@ -648,6 +688,46 @@ mod tests {
             white[s as usize] = [0; 3];
         }
         assert_eq!(detail_psnr(layout, &white), 0.0);
+    }
+
+    /// A bumpy sphere refined 3 times, and an asset of its finest quads,
+    /// nothing beside.
+    fn sphere_asset() -> (SemiRegularMesh, Asset) {
+        let sphere = lift::synthetic::bumpy_sphere(3);
+        let layout = sphere.layout();
+        let mut asset = Asset::default();
+        asset.mesh =
+            PolyMesh::from_faces(sphere.positions().to_vec(), &layout.quads(layout.level()));
+        (sphere, asset)
+    }
+
+    /// What colours drawn over a mesh miss of a surface's colour: as
+    /// good as 8-bit rounding where they are the surface's own vertex
+    /// colours over its own triangles, and their whole difference where
+    /// they are flat grey.
+    #[test]
+    fn colour_missed_measures_the_drawn_colour_against_the_surface() {
+        let (sphere, mut asset) = sphere_asset();
+        let layout = sphere.layout();
+        let own: Vec<[u8; 3]> = (0..layout.sample_count() as u64)
+            .map(|s| {
+                let h = s.wrapping_mul(0x9e37_79b9_7f4a_7c15);
+                [h >> 56, h >> 48, h >> 40].map(|x| x as u8)
+            })
+            .collect();
+        asset.colors = Some(
+            (own.iter())
+                .map(|c| [c[0], c[1], c[2], 255].map(|x| f32::from(x) / 255.0))
+                .collect(),
+        );
+        let surface = param::ColourSurface::new(&asset).unwrap().unwrap();
+        let missed = colour_missed(&sphere, &own, &surface);
+        assert!(missed < 0.2, "own colours: {missed}");
+        let grey = vec![[128u8; 3]; own.len()];
+        let missed = colour_missed(&sphere, &grey, &surface);
+        // Random bytes against their middle: about 255^2 / 12 a channel,
+        // less what interpolation inside each triangle averages out.
+        assert!((1500.0..3500.0).contains(&missed), "grey: {missed}");
     }
 
     /// A textured decode as an asset looks as its written files do.
@@ -719,11 +799,7 @@ mod tests {
     /// whole estimate and the limit given.
     #[test]
     fn texture_images_count_against_the_memory_limit() {
-        let sphere = lift::synthetic::bumpy_sphere(3);
-        let layout = sphere.layout();
-        let mut asset = Asset::default();
-        asset.mesh =
-            PolyMesh::from_faces(sphere.positions().to_vec(), &layout.quads(layout.level()));
+        let (_, mut asset) = sphere_asset();
         let needed = |asset: &Asset, limit: u64| {
             let options = RemeshOptions::default().with_max_memory(limit);
             match prepare_asset_reporting(asset, &options, &|_| {}) {

@@ -4,6 +4,7 @@
 use qm_lift::SemiRegularMesh;
 use qm_lift::synthetic::bumpy_sphere as sphere;
 
+use crate::colour::Colours;
 use crate::container::{COLOUR, FINER_COLOUR, Limits};
 use crate::decode::{DecodeOptions, Decoder, decompress};
 use crate::encode::{EncodeOptions, compress, compress_coloured};
@@ -44,7 +45,8 @@ fn colours_come_back_exactly_with_the_same_geometry() {
         let mesh = sphere(level);
         let rgb = colours(&mesh);
         let plain = compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
-        let c = compress_coloured(&mesh, &rgb, &EncodeOptions::DEFAULT, None).unwrap();
+        let c =
+            compress_coloured(&mesh, Colours::new(&rgb), &EncodeOptions::DEFAULT, None).unwrap();
         let d = decompress(&c.bytes, &DecodeOptions::FINEST).unwrap();
         assert_eq!(d.header.flags & COLOUR, COLOUR);
         assert_eq!(d.values, plain.quantized, "level {level}: geometry");
@@ -72,7 +74,7 @@ fn every_cut_gives_geometry_and_colour() {
     let mesh = sphere(4);
     let rgb = colours(&mesh);
     let plain = compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
-    let c = compress_coloured(&mesh, &rgb, &EncodeOptions::DEFAULT, None).unwrap();
+    let c = compress_coloured(&mesh, Colours::new(&rgb), &EncodeOptions::DEFAULT, None).unwrap();
     let header = decompress(&c.bytes, &DecodeOptions::FINEST).unwrap().header;
     let runs = header.colour.clone().unwrap().runs;
     assert!(runs.len() > 1, "interleaved: {runs:?}");
@@ -119,7 +121,7 @@ fn every_cut_gives_geometry_and_colour() {
 fn incremental_decoding_with_colours_equals_decompress() {
     let mesh = sphere(4);
     let rgb = colours(&mesh);
-    let c = compress_coloured(&mesh, &rgb, &EncodeOptions::DEFAULT, None).unwrap();
+    let c = compress_coloured(&mesh, Colours::new(&rgb), &EncodeOptions::DEFAULT, None).unwrap();
     let mut decoder = Decoder::new(&c.bytes, &Limits::DEFAULT).unwrap();
     let start = decoder.stream_start();
     let options = DecodeOptions::DEFAULT;
@@ -145,11 +147,17 @@ fn budgets_and_wrong_colour_counts() {
     let mesh = sphere(3);
     let rgb = colours(&mesh);
     let options = EncodeOptions::DEFAULT.with_max_bytes(Some(1500));
-    let c = compress_coloured(&mesh, &rgb, &options, None).unwrap();
+    let c = compress_coloured(&mesh, Colours::new(&rgb), &options, None).unwrap();
     assert!(c.bytes.len() <= 1500);
     let d = decompress(&c.bytes, &DecodeOptions::FINEST).unwrap();
     assert_eq!(d.colours.unwrap().len(), rgb.len());
-    let e = compress_coloured(&mesh, &rgb[1..], &EncodeOptions::DEFAULT, None).unwrap_err();
+    let e = compress_coloured(
+        &mesh,
+        Colours::new(&rgb[1..]),
+        &EncodeOptions::DEFAULT,
+        None,
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("colours"), "{e}");
 }
 
@@ -159,7 +167,7 @@ fn budgets_and_wrong_colour_counts() {
 fn a_stream_decoder_waits_for_the_last_colour_byte() {
     let mesh = sphere(3);
     let rgb = colours(&mesh);
-    let c = compress_coloured(&mesh, &rgb, &EncodeOptions::DEFAULT, None).unwrap();
+    let c = compress_coloured(&mesh, Colours::new(&rgb), &EncodeOptions::DEFAULT, None).unwrap();
     let mut decoder = crate::StreamDecoder::new(DecodeOptions::FINEST);
     for piece in c.bytes.chunks(211) {
         assert!(decoder.wants_more());
@@ -179,6 +187,38 @@ fn a_stream_decoder_waits_for_the_last_colour_byte() {
 /// byte (exactly, or within a quarter of what the samples miss where the
 /// stream stops there), every cut decodes with a texture no finer than the colour
 /// reached, and the mesh's own colours stay one per vertex.
+/// Colours whose floor the caller measured (what the samples miss of the
+/// surface's colour) end at the first pass whose error against the samples
+/// is a quarter of it: the higher the floor, the sooner; the geometry is
+/// the same.
+#[test]
+fn a_measured_floor_ends_the_colour_stream() {
+    let mesh = sphere(4);
+    let rgb = colours(&mesh);
+    let plain = compress(&mesh, &EncodeOptions::DEFAULT).unwrap();
+    let whole =
+        compress_coloured(&mesh, Colours::new(&rgb), &EncodeOptions::DEFAULT, None).unwrap();
+    let d = decompress(&whole.bytes, &DecodeOptions::FINEST).unwrap();
+    assert_eq!(d.colours.as_deref(), Some(&rgb[..]));
+    let mut last = (d.header.colour.unwrap().passes, whole.bytes.len());
+    for missed in [4.0, 16.0, 64.0] {
+        let given = Colours::new(&rgb).with_missed(missed);
+        let c = compress_coloured(&mesh, given, &EncodeOptions::DEFAULT, None).unwrap();
+        let d = decompress(&c.bytes, &DecodeOptions::FINEST).unwrap();
+        assert_eq!(d.values, plain.quantized, "floor {missed}: geometry");
+        let colour = d.header.colour.as_ref().unwrap();
+        let error = mse(d.colours.as_ref().unwrap(), &rgb);
+        assert!(error <= missed / 4.0, "floor {missed}: {error}");
+        assert!(
+            colour.passes < last.0 && c.bytes.len() < last.1,
+            "floor {missed}: {} passes, {} bytes after {last:?}",
+            colour.passes,
+            c.bytes.len()
+        );
+        last = (colour.passes, c.bytes.len());
+    }
+}
+
 #[test]
 fn colours_finer_than_the_geometry_come_back_as_a_texture() {
     let mesh = sphere(2);
@@ -187,7 +227,8 @@ fn colours_finer_than_the_geometry_come_back_as_a_texture() {
         let fine = sphere(2 + finer);
         assert_eq!(fine.layout().base(), mesh.layout().base());
         let rgb = field(&fine, noisy);
-        let c = compress_coloured(&mesh, &rgb, &EncodeOptions::DEFAULT, None).unwrap();
+        let c =
+            compress_coloured(&mesh, Colours::new(&rgb), &EncodeOptions::DEFAULT, None).unwrap();
         let d = decompress(&c.bytes, &DecodeOptions::FINEST).unwrap();
         assert_eq!(d.header.flags & FINER_COLOUR, FINER_COLOUR);
         assert_eq!(d.header.colour.as_ref().unwrap().finer as u32, finer);
@@ -238,7 +279,13 @@ fn colours_finer_than_the_geometry_come_back_as_a_texture() {
     }
     // Colours at the geometry's level make no texture, even for a coarser
     // mesh: such files decode as they did.
-    let c = compress_coloured(&mesh, &colours(&mesh), &EncodeOptions::DEFAULT, None).unwrap();
+    let c = compress_coloured(
+        &mesh,
+        Colours::new(&colours(&mesh)),
+        &EncodeOptions::DEFAULT,
+        None,
+    )
+    .unwrap();
     for level in [LevelChoice::Finest, LevelChoice::Fixed(0)] {
         let d = decompress(&c.bytes, &DecodeOptions::DEFAULT.with_level(level)).unwrap();
         assert_eq!(d.header.flags & FINER_COLOUR, 0);
@@ -253,7 +300,7 @@ fn colours_finer_than_the_geometry_come_back_as_a_texture() {
 fn a_stream_decoders_mesh_is_textured_over_split_vertices() {
     let mesh = sphere(2);
     let rgb = colours(&sphere(4));
-    let c = compress_coloured(&mesh, &rgb, &EncodeOptions::DEFAULT, None).unwrap();
+    let c = compress_coloured(&mesh, Colours::new(&rgb), &EncodeOptions::DEFAULT, None).unwrap();
     for level in [0, 1, 2] {
         let options = DecodeOptions::DEFAULT.with_level(LevelChoice::Fixed(level));
         let mut decoder = crate::StreamDecoder::new(options);
