@@ -30,6 +30,9 @@ pub struct Buffers {
     /// The level and colour stream bytes the texture was made for: a
     /// refinement that advanced the geometry alone keeps it.
     texture_key: Option<(u32, usize)>,
+    /// How many times the texture was made: the same number, the same
+    /// texture and textured triangles.
+    texture_version: u32,
 }
 
 impl Default for Buffers {
@@ -58,6 +61,7 @@ impl Buffers {
             normals: Vec::new(),
             texture: None,
             texture_key: None,
+            texture_version: 0,
         }
     }
 
@@ -87,8 +91,16 @@ impl Buffers {
                 (atlas, textured)
             });
             self.texture_key = key;
+            self.texture_version = self.texture_version.wrapping_add(1);
         }
         Ok(true)
+    }
+
+    /// Changes whenever a refinement makes the texture anew: while it
+    /// stays, so do [`Buffers::texture`]'s atlas and triangles (a viewer
+    /// need not upload them again).
+    pub fn texture_version(&self) -> u32 {
+        self.texture_version
     }
 
     /// For a file whose colour is finer than its geometry: the last
@@ -454,6 +466,13 @@ impl QmDecoder {
         self.inner.texture().map_or(0, |(a, _)| a.height)
     }
 
+    /// A number that changes whenever a refinement makes the texture (and
+    /// its textured triangles) anew; while it stays the same, so do they.
+    #[wasm_bindgen(getter, js_name = textureVersion)]
+    pub fn texture_version(&self) -> u32 {
+        self.inner.texture_version()
+    }
+
     /// The last refinement's texture (a copy), `r, g, b, 255` per texel,
     /// 8-bit sRGB, rows from the top; `undefined` without one.
     #[wasm_bindgen(js_name = textureRgba)]
@@ -713,6 +732,8 @@ mod tests {
         let bytes = coloured_file(&mesh, &rgb);
         let mut inc = Buffers::new(DecodeOptions::default());
         let mut textured = 0;
+        // The last texture and its version.
+        let mut last = (inc.texture_version(), None);
         for chunk in bytes.chunks(61) {
             if !inc.decoder_mut().push(chunk).unwrap() || !inc.refine().unwrap() {
                 continue;
@@ -725,6 +746,11 @@ mod tests {
                 native.texture.as_ref(),
                 "at {n} bytes"
             );
+            // An unchanged version promises the texture a viewer has.
+            if inc.texture_version() == last.0 {
+                assert_eq!(native.texture, last.1, "at {n} bytes");
+            }
+            last = (inc.texture_version(), native.texture);
             if let Some((atlas, t)) = inc.texture() {
                 let m = inc.decoder().mesh().unwrap();
                 assert_eq!(t, &m.textured(atlas), "at {n} bytes");

@@ -75,9 +75,11 @@ export interface QMMesh {
   /**
    * For a file whose colour is finer than its geometry: that colour as a
    * texture atlas, r, g, b, 255 per texel (8-bit sRGB), rows from the top;
-   * null for other files.
+   * null for other files. `version` differs between decoders and changes
+   * whenever a refinement makes the texture anew: while it stays, so do
+   * the texels and `textured` (a viewer need not upload them again).
    */
-  texture: { width: number; height: number; data: Uint8Array } | null;
+  texture: { width: number; height: number; data: Uint8Array; version: string } | null;
   /**
    * With a texture: the mesh's triangles over vertices that each have one
    * texture coordinate (a vertex of several base quads is one such vertex

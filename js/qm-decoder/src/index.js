@@ -101,6 +101,8 @@ export class StreamDecoder {
   #pushed = 0;
   #ended = false;
   #last = null;
+  // Tells this decoder's textures from every other's (`texture.version`).
+  #id = Math.random().toString(36).slice(2);
 
   constructor(options = {}) {
     if (!loaded) throw new Error('qm-decoder: call and await ready() before new StreamDecoder()');
@@ -217,7 +219,12 @@ export class StreamDecoder {
       // For a file with colour finer than its geometry: the texture, and
       // the triangles over vertices with one texture coordinate each.
       texture: d.textureWidth
-        ? { width: d.textureWidth, height: d.textureHeight, data: d.textureRgba() }
+        ? {
+          width: d.textureWidth,
+          height: d.textureHeight,
+          data: d.textureRgba(),
+          version: `${this.#id}.${d.textureVersion}`,
+        }
         : null,
       textured: d.textureWidth
         ? { vertices: d.texturedVertices(), uvs: d.uvs(), indices: d.texturedIndices() }

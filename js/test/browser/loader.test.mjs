@@ -34,6 +34,7 @@ let spot;
 let cube;
 let throttled; // qm serve --throttle, the spot file
 let fast; // qm serve unthrottled, the cube file
+let slow; // qm serve throttled harder, a textured controller
 let b;
 let colouredFile;
 let texturedFile; // the coloured example's sphere, served throttled
@@ -89,15 +90,21 @@ before(async () => {
   colouredFile = { file: path.join(models, 'coloured.qm'), ...coloured(path.join(models, 'coloured.qm')) };
   texturedFile = path.join(models, 'textured_cube.qm');
   fs.copyFileSync(path.join(root, 'tests', 'data', 'textured_cube.qm'), texturedFile);
+  const slowModels = path.join(dir, 'slow');
+  fs.mkdirSync(slowModels);
+  compress('assets/appearance/pico-neo3-left.glb', path.join(slowModels, 'pico.qm'));
   // About 5 s for the whole spot file.
   throttled = await serve(models, { throttle: Math.max(8, Math.round(spot.bytes.length / 1024 / 5)), web: www });
   fast = await serve(cubes, { web: www });
+  // The textured controller in about 4 s, for many refinements.
+  slow = await serve(slowModels, { throttle: 3, web: www });
   b = await browser();
 });
 
 after(async () => {
   await b?.close();
   throttled?.stop();
+  slow?.stop();
   fast?.stop();
   fs.rmSync(dir, { recursive: true, force: true });
 });
@@ -370,6 +377,14 @@ test('a textured file: a uv attribute and the texture, loaded and through qm glt
   assert.equal(r.shown, true, 'the material set on update shows the final texture');
   assert.equal(r.distinctMaps, 1, `one DataTexture for the stream, however its size changed: ${r.looks}`);
   assert.equal(r.looks.at(-1), 'texture');
+  assert.equal(r.uploads, r.versions, 'one upload a texture the decoder made');
+  // A textured controller: refinements that advance its geometry alone
+  // upload nothing.
+  await page(slow);
+  const s = await b.page.evaluate(() => window.qmTest.textured('models/pico.qm'));
+  assert.equal(s.ok, true, JSON.stringify(s.error));
+  const textures = s.looks.filter((l) => l === 'texture').length;
+  assert.ok(s.uploads === s.versions && s.versions < textures, `${s.uploads} uploads, ${s.versions} versions, ${textures} textured updates`);
   // Through qm gltf and the plugin: the meshes' material shows the texture.
   await gltf('textured.glb', [], texturedFile);
   const g = await b.page.evaluate(() => window.qmTest.gltf('textured.glb', { plugin: true, options: { level: 'finest' } }));

@@ -335,6 +335,7 @@ test('a file with colour finer than its geometry: a texture and its coordinates'
     assert.deepEqual([width, height], [native.texture.width, native.texture.height]);
     const rgb = data.filter((_, i) => i % 4 !== 3);
     assert.equal(fnv1a(rgb), native.texture.checksum, `the native decoder's texture at ${m.bytesUsed} bytes`);
+
     // The textured triangles are the mesh's, over split vertices with
     // coordinates on texel centres inside the image.
     const t = m.textured;
@@ -352,4 +353,37 @@ test('a file with colour finer than its geometry: a texture and its coordinates'
   d.end();
   d.dispose();
   assert.equal((await decode(cube.bytes)).texture, null);
+});
+
+test('a texture keeps its version while refinements advance the geometry alone', async () => {
+  // A textured controller (its colour two levels finer than its own
+  // triangles): its geometry's bytes and its colour's alternate, so some
+  // refinements advance the geometry alone.
+  const { file, bytes } = compress('assets/appearance/pico-neo3-left.glb', 'pico.qm');
+  const d = new StreamDecoder();
+  let last = null;
+  let [shown, kept] = [0, 0];
+  for (let at = 0; at < bytes.length; at += 127) {
+    if (!d.push(bytes.subarray(at, at + 127))) continue;
+    const m = d.refine();
+    if (!m?.texture) continue;
+    shown++;
+    const native = reference(file, m.bytesUsed, m.level);
+    const rgb = m.texture.data.filter((_, i) => i % 4 !== 3);
+    assert.equal(fnv1a(rgb), native.texture.checksum, `the native decoder's texture at ${m.bytesUsed} bytes`);
+    const textured = [m.textured.vertices, m.textured.uvs, m.textured.indices].map((a) => fnv1a(new Uint8Array(a.buffer)));
+    // An unchanged version promises the texels and triangles a viewer has.
+    if (last?.version === m.texture.version) {
+      assert.deepEqual([native.texture.checksum, textured], [last.checksum, last.textured], `kept at ${m.bytesUsed} bytes`);
+      kept++;
+    }
+    last = { version: m.texture.version, checksum: native.texture.checksum, textured };
+  }
+  assert.ok(kept > 0 && kept < shown, `${kept} of ${shown} textures kept`);
+  d.dispose();
+  // Another decoder's textures have versions of their own.
+  const other = new StreamDecoder();
+  other.push(bytes);
+  assert.notEqual(other.end().texture.version, last.version);
+  other.dispose();
 });

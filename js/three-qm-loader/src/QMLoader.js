@@ -84,7 +84,9 @@ function texturedMesh(mesh) {
 // The geometry's texture (`userData.qmTexture`): one DataTexture for the
 // geometry's life, so that a material keeps it as its map. Its image is
 // updated in place, or replaced (the GPU texture freed first) when the atlas
-// grows as the colour reaches finer levels; removed without a texture.
+// grows as the colour reaches finer levels; removed without a texture. A
+// texture of the version it holds (the refinement advanced the geometry
+// alone) is not uploaded again.
 function applyTexture(geometry, texture) {
   let map = geometry.userData.qmTexture;
   if (!texture) {
@@ -102,11 +104,13 @@ function applyTexture(geometry, texture) {
     map.generateMipmaps = true;
     geometry.userData.qmTexture = map;
   } else if (map.image.width === width && map.image.height === height) {
+    if (texture.version !== undefined && map.userData.qmVersion === texture.version) return;
     map.image.data.set(data);
   } else {
     map.dispose();
     map.image = { data, width, height };
   }
+  map.userData.qmVersion = texture.version;
   map.needsUpdate = true;
 }
 

@@ -230,6 +230,9 @@ window.qmTest = {
   async textured(url) {
     await ready();
     const maps = new Set();
+    // Three.js's versions of the texture (one an upload) and qm-decoder's.
+    const uploads = new Set();
+    const versions = new Set();
     const looks = [];
     const mesh = new THREE.Mesh(new THREE.BufferGeometry(), new THREE.MeshBasicMaterial());
     const stream = loader.stream(url, {
@@ -240,7 +243,11 @@ window.qmTest = {
       onUpdate: ({ geometry }) => {
         const map = geometry.userData.qmTexture ?? null;
         const vertexColors = !map && geometry.hasAttribute('color');
-        if (map) maps.add(map);
+        if (map) {
+          maps.add(map);
+          uploads.add(map.version);
+          versions.add(map.userData.qmVersion);
+        }
         looks.push(map ? 'texture' : vertexColors ? 'colors' : 'none');
         if (mesh.material.map !== map || mesh.material.vertexColors !== vertexColors) {
           Object.assign(mesh.material, { map, vertexColors });
@@ -269,6 +276,8 @@ window.qmTest = {
       texture: map && { width: map.image.width, height: map.image.height, isDataTexture: map.isDataTexture === true, colorSpace: map.colorSpace },
       shown: mesh.material.map === map,
       distinctMaps: maps.size,
+      uploads: uploads.size,
+      versions: versions.size,
       looks,
       covered: covered(),
     };
