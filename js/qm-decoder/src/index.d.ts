@@ -76,8 +76,9 @@ export interface QMMesh {
    * For a file whose colour is finer than its geometry: that colour as a
    * texture atlas, r, g, b, 255 per texel (8-bit sRGB), rows from the top;
    * null for other files. `version` differs between decoders and changes
-   * whenever a refinement makes the texture anew: while it stays, so do
-   * the texels and `textured` (a viewer need not upload them again).
+   * whenever a refinement makes the texture anew: while it stays, `texture`
+   * and `textured` are the last mesh's objects, unchanged (a viewer need
+   * not upload them again; do not modify them).
    */
   texture: { width: number; height: number; data: Uint8Array; version: string } | null;
   /**

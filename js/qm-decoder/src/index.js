@@ -103,6 +103,9 @@ export class StreamDecoder {
   #last = null;
   // Tells this decoder's textures from every other's (`texture.version`).
   #id = Math.random().toString(36).slice(2);
+  // The last mesh's texture and textured triangles, given again while their
+  // version stays.
+  #texture = null;
 
   constructor(options = {}) {
     if (!loaded) throw new Error('qm-decoder: call and await ready() before new StreamDecoder()');
@@ -210,6 +213,13 @@ export class StreamDecoder {
 
   #mesh() {
     const d = this.#d;
+    const version = d.textureWidth ? `${this.#id}.${d.textureVersion}` : null;
+    if (this.#texture?.texture.version !== version) {
+      this.#texture = version && {
+        texture: { width: d.textureWidth, height: d.textureHeight, data: d.textureRgba(), version },
+        textured: { vertices: d.texturedVertices(), uvs: d.uvs(), indices: d.texturedIndices() },
+      };
+    }
     return {
       positions: d.positions(),
       normals: d.normals(),
@@ -217,18 +227,10 @@ export class StreamDecoder {
       // 8-bit sRGB, r g b per vertex, for a file with colours.
       colors: d.colors() ?? null,
       // For a file with colour finer than its geometry: the texture, and
-      // the triangles over vertices with one texture coordinate each.
-      texture: d.textureWidth
-        ? {
-          width: d.textureWidth,
-          height: d.textureHeight,
-          data: d.textureRgba(),
-          version: `${this.#id}.${d.textureVersion}`,
-        }
-        : null,
-      textured: d.textureWidth
-        ? { vertices: d.texturedVertices(), uvs: d.uvs(), indices: d.texturedIndices() }
-        : null,
+      // the triangles over vertices with one texture coordinate each (the
+      // same objects as the last mesh's while the version stays).
+      texture: this.#texture?.texture ?? null,
+      textured: this.#texture?.textured ?? null,
       level: d.level,
       finestLevel: d.finestLevel,
       passes: d.passes,

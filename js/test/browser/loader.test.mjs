@@ -35,6 +35,7 @@ let cube;
 let throttled; // qm serve --throttle, the spot file
 let fast; // qm serve unthrottled, the cube file
 let slow; // qm serve throttled harder, a textured controller
+let picoFile; // that controller's file
 let b;
 let colouredFile;
 let texturedFile; // the coloured example's sphere, served throttled
@@ -92,7 +93,8 @@ before(async () => {
   fs.copyFileSync(path.join(root, 'tests', 'data', 'textured_cube.qm'), texturedFile);
   const slowModels = path.join(dir, 'slow');
   fs.mkdirSync(slowModels);
-  compress('assets/appearance/pico-neo3-left.glb', path.join(slowModels, 'pico.qm'));
+  picoFile = path.join(slowModels, 'pico.qm');
+  compress('assets/appearance/pico-neo3-left.glb', picoFile);
   // About 5 s for the whole spot file.
   throttled = await serve(models, { throttle: Math.max(8, Math.round(spot.bytes.length / 1024 / 5)), web: www });
   fast = await serve(cubes, { web: www });
@@ -385,6 +387,8 @@ test('a textured file: a uv attribute and the texture, loaded and through qm glt
   assert.equal(s.ok, true, JSON.stringify(s.error));
   const textures = s.looks.filter((l) => l === 'texture').length;
   assert.ok(s.uploads === s.versions && s.versions < textures, `${s.uploads} uploads, ${s.versions} versions, ${textures} textured updates`);
+  const ns = reference(picoFile, s.bytesUsed, s.level);
+  assert.deepEqual([s.texture.width, s.texture.height, s.shown], [ns.texture.width, ns.texture.height, true]);
   // Through qm gltf and the plugin: the meshes' material shows the texture.
   await gltf('textured.glb', [], texturedFile);
   const g = await b.page.evaluate(() => window.qmTest.gltf('textured.glb', { plugin: true, options: { level: 'finest' } }));

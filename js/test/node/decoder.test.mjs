@@ -373,11 +373,13 @@ test('a texture keeps its version while refinements advance the geometry alone',
     assert.equal(fnv1a(rgb), native.texture.checksum, `the native decoder's texture at ${m.bytesUsed} bytes`);
     const textured = [m.textured.vertices, m.textured.uvs, m.textured.indices].map((a) => fnv1a(new Uint8Array(a.buffer)));
     // An unchanged version promises the texels and triangles a viewer has.
+    // and hands the last mesh's objects again, not copies.
     if (last?.version === m.texture.version) {
       assert.deepEqual([native.texture.checksum, textured], [last.checksum, last.textured], `kept at ${m.bytesUsed} bytes`);
+      assert.ok(m.texture === last.objects[0] && m.textured === last.objects[1], `the same objects at ${m.bytesUsed} bytes`);
       kept++;
     }
-    last = { version: m.texture.version, checksum: native.texture.checksum, textured };
+    last = { version: m.texture.version, checksum: native.texture.checksum, textured, objects: [m.texture, m.textured] };
   }
   assert.ok(kept > 0 && kept < shown, `${kept} of ${shown} textures kept`);
   d.dispose();

@@ -180,6 +180,9 @@ let streamIds = 0;
  * resume() sets a new goal and goes on from the bytes already received.
  */
 export class QMStream {
+  // The last texture and textured triangles the worker sent.
+  #kept = null;
+
   constructor(loader, source, options = {}) {
     this.loader = loader;
     this.source = source;
@@ -387,6 +390,11 @@ export class QMStream {
   }
 
   #apply(mesh) {
+    // A texture the worker did not send again is the one it sent last.
+    if (mesh.texture?.data === null) {
+      mesh = { ...mesh, texture: this.#kept.texture, textured: this.#kept.textured };
+    }
+    this.#kept = mesh.texture && { texture: mesh.texture, textured: mesh.textured };
     // A geometry that already shows this many bytes' worth (a glTF fallback)
     // is not replaced by a coarser mesh.
     if (mesh.bytesUsed < this.showFrom) return;

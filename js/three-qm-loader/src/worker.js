@@ -6,6 +6,9 @@
 import { ready, StreamDecoder, QMError } from 'qm-decoder';
 
 const decoders = new Map();
+// Per decoder: the version of the texture last sent to the main thread,
+// which keeps it (and its textured triangles) until the version changes.
+const sentTexture = new WeakMap();
 
 function reply(seq, result, transfer = []) {
   self.postMessage({ seq, ok: true, result }, transfer);
@@ -19,12 +22,17 @@ function fail(seq, e) {
 }
 
 // The state the main thread needs after a push or a refinement, and the
-// mesh's buffers (transferred, not copied) when there is a new mesh.
+// mesh's buffers (transferred, not copied) when there is a new mesh. A
+// texture of the version last sent goes without its texels and triangles
+// (`data: null`, `textured: null`): the main thread has them.
 function status(decoder, mesh) {
   const transfer = mesh ? [mesh.positions.buffer, mesh.normals.buffer, mesh.indices.buffer] : [];
   if (mesh?.colors) transfer.push(mesh.colors.buffer);
-  if (mesh?.texture) transfer.push(mesh.texture.data.buffer);
-  if (mesh?.textured) {
+  if (mesh?.texture && sentTexture.get(decoder) === mesh.texture.version) {
+    mesh = { ...mesh, texture: { ...mesh.texture, data: null }, textured: null };
+  } else if (mesh?.texture) {
+    sentTexture.set(decoder, mesh.texture.version);
+    transfer.push(mesh.texture.data.buffer);
     transfer.push(mesh.textured.vertices.buffer, mesh.textured.uvs.buffer, mesh.textured.indices.buffer);
   }
   return [
