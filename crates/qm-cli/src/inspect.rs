@@ -49,7 +49,10 @@ struct ColourInfo {
     geometry_stream_bytes: u64,
     /// Runs the two streams are interleaved in.
     runs: usize,
+    /// Bit planes of the colour, and those its stream codes (fewer where
+    /// it ends at what the samples miss of the input's colour).
     planes: u8,
+    passes: u8,
     /// The colour's subdivision level: the geometry's, or finer (a texture).
     level: u32,
 }
@@ -127,6 +130,7 @@ pub fn info(input: &Path, levels: bool, json: bool) -> Result<(), Failure> {
             geometry_stream_bytes: colour.runs.iter().map(|r| r[0] as u64).sum(),
             runs: colour.runs.len(),
             planes: colour.planes,
+            passes: colour.passes,
             level: container::colour_level(h),
         }),
         levels,
@@ -148,11 +152,12 @@ pub fn info(input: &Path, levels: bool, json: bool) -> Result<(), Failure> {
         }
         if let Some(c) = &info.colour {
             out!(
-                "{:>18}: {} bytes beside {} of geometry, in {} runs, {} planes, level {}{}",
+                "{:>18}: {} bytes beside {} of geometry, in {} runs, {} of {} planes, level {}{}",
                 "colour",
                 c.stream_bytes,
                 c.geometry_stream_bytes,
                 c.runs,
+                c.passes,
                 c.planes,
                 c.level,
                 if c.level > u32::from(info.level) {
