@@ -105,10 +105,11 @@ pub struct Colours<'a> {
     /// samples' colour drawn over the mesh (interpolated across each
     /// triangle of the finest quads) against the colour of the surface they
     /// were sampled from, area-weighted: the error the colour stream can
-    /// never remove, however long. With it, the colour stream ends at the
-    /// first pass whose error against the samples is a quarter of it (the
-    /// passes after would buy less than 1 dB against that surface); without
-    /// it, colours at the mesh's level are coded losslessly and finer ones
+    /// never remove, however long. Where it is above what 8-bit rounding
+    /// alone leaves (1/12), the colour stream ends at the first pass whose
+    /// error against the samples is a quarter of it (the passes after would
+    /// buy less than 1 dB against that surface); otherwise, and without
+    /// it, colours at the mesh's level are coded losslessly, and finer ones
     /// estimate it (the error of dropping their finest level of details).
     pub missed: Option<f64>,
 }
@@ -205,8 +206,11 @@ pub(crate) fn encode(layout: &Layout, update: UpdateRule, given: Colours) -> Res
     // by the caller, or else what the lossless stream keeps (rounding) and
     // what the samples miss between them, taken as what dropping the
     // finest level of details would cost.
-    let floor = match given.missed {
-        Some(missed) => missed.max(ROUNDING_ERROR),
+    // A measure no higher than rounding says the samples hold the colour
+    // as well as 8 bits can: they are coded exactly.
+    let missed = given.missed.filter(|&m| m > ROUNDING_ERROR);
+    let floor = match missed {
+        Some(missed) => missed,
         None if layout.level() == 0 => ROUNDING_ERROR,
         None => {
             let mut coarse = data.clone();
@@ -243,7 +247,7 @@ pub(crate) fn encode(layout: &Layout, update: UpdateRule, given: Colours) -> Res
     // texture resampled): the stream ends at the first pass whose error is
     // a quarter of what the samples miss, beyond which a pass buys less
     // than 1 dB against the surface's colour.
-    if finer > 0 || given.missed.is_some() {
+    if finer > 0 || missed.is_some() {
         let mut measure = Measure::new(layout, &lifting, &header, colours);
         let stop = (encoded.pass_ends.iter())
             .position(|&end| measure.at(&encoded.bytes[..end]) <= floor / 4.0);

@@ -86,12 +86,15 @@ impl Buffers {
         let decoder = self.decoder.decoder().expect("a mesh has its decoder");
         let key = decoder.colour_bytes_used().map(|used| (mesh.level(), used));
         if key.is_none() || key != self.texture_key {
+            let had = self.texture.is_some();
             self.texture = mesh.texture().map(|atlas| {
                 let textured = mesh.textured(&atlas);
                 (atlas, textured)
             });
             self.texture_key = key;
-            self.texture_version = self.texture_version.wrapping_add(1);
+            if had || self.texture.is_some() {
+                self.texture_version = self.texture_version.wrapping_add(1);
+            }
         }
         Ok(true)
     }

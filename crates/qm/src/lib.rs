@@ -212,12 +212,15 @@ pub fn encode_prepared_asset(
     };
     let mut finer = finer_colour_levels(texels, layout);
     if finer == 0 {
-        // Colour at the samples: the stream goes as far as what they miss
-        // of the surface's colour, measured, is worth.
+        // Colour at the samples of a remesh: the stream goes as far as what
+        // they miss of the surface's colour, measured, is worth. The
+        // vertices of an input coded as it is are its own: exactly.
         let colours = surface.colours_at(prepared.mesh.positions());
-        let missed = colour_missed(&prepared.mesh, &colours, &surface);
-        let colours = codec::Colours::new(&colours).with_missed(missed);
-        return encode_with(prepared, &asset.mesh, Some(colours), options);
+        let mut given = codec::Colours::new(&colours);
+        if prepared.remeshed.is_some() {
+            given = given.with_missed(colour_missed(&prepared.mesh, &colours, &surface));
+        }
+        return encode_with(prepared, &asset.mesh, Some(given), options);
     }
     let (mut colours, mut fine) = sample(finer)?;
     // A sharp texture: finer while what the samples miss of it stays
@@ -704,7 +707,8 @@ mod tests {
     /// What colours drawn over a mesh miss of a surface's colour: as
     /// good as 8-bit rounding where they are the surface's own vertex
     /// colours over its own triangles, and their whole difference where
-    /// they are flat grey.
+    /// they are flat grey. Such a surface, already semi-regular, is coded
+    /// as it is, its colours exactly.
     #[test]
     fn colour_missed_measures_the_drawn_colour_against_the_surface() {
         let (sphere, mut asset) = sphere_asset();
@@ -723,6 +727,12 @@ mod tests {
         let surface = param::ColourSurface::new(&asset).unwrap().unwrap();
         let missed = colour_missed(&sphere, &own, &surface);
         assert!(missed < 0.2, "own colours: {missed}");
+        // A semi-regular input is coded as it is: its colours come back
+        // exactly, whatever the measure.
+        let encoded = encode_asset(&asset, &Options::default()).unwrap();
+        assert!(encoded.remeshed.is_none());
+        let decoded = decode(&encoded.bytes, &DecodeOptions::FINEST).unwrap();
+        assert_eq!(decoded.colours(), Some(&own[..]));
         let grey = vec![[128u8; 3]; own.len()];
         let missed = colour_missed(&sphere, &grey, &surface);
         // Random bytes against their middle: about 255^2 / 12 a channel,

@@ -78,7 +78,7 @@ export interface QMMesh {
    * null for other files. `version` differs between decoders and changes
    * whenever a refinement makes the texture anew: while it stays, `texture`
    * and `textured` are the last mesh's objects, unchanged (a viewer need
-   * not upload them again; do not modify them).
+   * not upload them again; do not modify or transfer them).
    */
   texture: { width: number; height: number; data: Uint8Array; version: string } | null;
   /**

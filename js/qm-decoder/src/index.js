@@ -318,6 +318,7 @@ export class StreamDecoder {
       this.#d = null;
     }
     this.#last = null;
+    this.#texture = null;
   }
 }
 

@@ -105,7 +105,8 @@ function applyTexture(geometry, texture) {
     geometry.userData.qmTexture = map;
   } else if (map.image.width === width && map.image.height === height) {
     if (texture.version !== undefined && map.userData.qmVersion === texture.version) return;
-    map.image.data.set(data);
+    // The new texels themselves, not a copy: the stream keeps them too.
+    map.image.data = data;
   } else {
     map.dispose();
     map.image = { data, width, height };
@@ -242,6 +243,7 @@ export class QMStream {
   dispose() {
     if (this.disposed) return;
     this.disposed = true;
+    this.#kept = null;
     this.stopper?.abort();
     if (this.entry) {
       const { entry } = this;
@@ -390,8 +392,10 @@ export class QMStream {
   }
 
   #apply(mesh) {
-    // A texture the worker did not send again is the one it sent last.
+    // A texture the worker did not send again is the one it sent last (the
+    // geometry's map holds those texels, not a copy).
     if (mesh.texture?.data === null) {
+      if (!this.#kept) throw new QMError('internal', 'the decoder worker sent a texture it had not sent before');
       mesh = { ...mesh, texture: this.#kept.texture, textured: this.#kept.textured };
     }
     this.#kept = mesh.texture && { texture: mesh.texture, textured: mesh.textured };

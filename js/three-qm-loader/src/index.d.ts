@@ -129,6 +129,8 @@ export declare class QMLoader extends Loader<BufferGeometry> {
  * geometry those triangles with a `uv` attribute and no `color`, and the
  * texture as `geometry.userData.qmTexture`, a DataTexture (sRGB) to use as
  * a material's `map`; the glTF extension sets it on the meshes' materials.
+ * A texture of the `version` the geometry's texture already shows (a
+ * refinement that advanced the geometry alone) is not uploaded again.
  */
 export declare function applyMesh(
   geometry: BufferGeometry,
@@ -138,7 +140,7 @@ export declare function applyMesh(
     indices: Uint32Array;
     level: number;
     colors?: Uint8Array | null;
-    texture?: { width: number; height: number; data: Uint8Array } | null;
+    texture?: { width: number; height: number; data: Uint8Array; version?: string } | null;
     textured?: { vertices: Uint32Array; uvs: Float32Array; indices: Uint32Array } | null;
   },
 ): void;

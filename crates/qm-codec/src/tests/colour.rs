@@ -182,11 +182,6 @@ fn a_stream_decoder_waits_for_the_last_colour_byte() {
     assert_eq!(decoder.mesh().unwrap().colours(), Some(&rgb[..]));
 }
 
-/// Colours at levels finer than the geometry's: the geometry is the
-/// geometry-only file's, the colours come back as a texture at the last
-/// byte (exactly, or within a quarter of what the samples miss where the
-/// stream stops there), every cut decodes with a texture no finer than the colour
-/// reached, and the mesh's own colours stay one per vertex.
 /// Colours whose floor the caller measured (what the samples miss of the
 /// surface's colour) end at the first pass whose error against the samples
 /// is a quarter of it: the higher the floor, the sooner; the geometry is
@@ -217,8 +212,21 @@ fn a_measured_floor_ends_the_colour_stream() {
         );
         last = (colour.passes, c.bytes.len());
     }
+    // A floor no higher than rounding: the samples hold the colour as well
+    // as 8 bits can, and come back exactly.
+    for missed in [0.0, 1.0 / 12.0] {
+        let given = Colours::new(&rgb).with_missed(missed);
+        let c = compress_coloured(&mesh, given, &EncodeOptions::DEFAULT, None).unwrap();
+        let d = decompress(&c.bytes, &DecodeOptions::FINEST).unwrap();
+        assert_eq!(d.colours.as_deref(), Some(&rgb[..]), "floor {missed}");
+    }
 }
 
+/// Colours at levels finer than the geometry's: the geometry is the
+/// geometry-only file's, the colours come back as a texture at the last
+/// byte (exactly, or within a quarter of what the samples miss where the
+/// stream stops there), every cut decodes with a texture no finer than the colour
+/// reached, and the mesh's own colours stay one per vertex.
 #[test]
 fn colours_finer_than_the_geometry_come_back_as_a_texture() {
     let mesh = sphere(2);
