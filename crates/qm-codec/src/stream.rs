@@ -88,6 +88,14 @@ pub struct StreamDecoder {
     values: Vec<Coord>,
     last: Option<Refinement>,
     refinements: u32,
+    /// For a file whose colour is finer than its geometry: the last
+    /// refinement's texture and its triangles over split vertices, made
+    /// anew only when the level or the colour bytes used changed.
+    texture: Option<(Atlas, Textured)>,
+    /// The level and colour bytes the texture was made for.
+    texture_key: Option<(u32, usize)>,
+    /// How many times a texture was made (or dropped).
+    texture_version: u32,
 }
 
 impl Default for StreamDecoder {
@@ -110,6 +118,9 @@ impl StreamDecoder {
             values: Vec::new(),
             last: None,
             refinements: 0,
+            texture: None,
+            texture_key: None,
+            texture_version: 0,
         }
     }
 
@@ -246,7 +257,46 @@ impl StreamDecoder {
             estimate,
         });
         self.refinements += 1;
+        self.update_texture();
         Ok(true)
+    }
+
+    /// Makes the texture of the refinement just made, unless its level and
+    /// the colour bytes it used are those the last one was made for (a
+    /// refinement that advanced the geometry alone keeps it).
+    fn update_texture(&mut self) {
+        let (Some(decoder), Some(last)) = (&self.decoder, &self.last) else {
+            return;
+        };
+        let key = (decoder.colour_bytes_used()).map(|used| (last.status.level, used));
+        if key.is_some() && key == self.texture_key {
+            return;
+        }
+        let texture = self.mesh().and_then(|mesh| {
+            let atlas = mesh.texture()?;
+            let textured = mesh.textured(&atlas);
+            Some((atlas, textured))
+        });
+        if self.texture.is_some() || texture.is_some() {
+            self.texture_version = self.texture_version.wrapping_add(1);
+        }
+        (self.texture, self.texture_key) = (texture, key);
+    }
+
+    /// For a file whose colour is finer than its geometry: the last
+    /// refinement's texture atlas ([`LevelMesh::texture`]) and the mesh's
+    /// triangles over vertices with one texture coordinate each
+    /// ([`LevelMesh::textured`]), made anew only when a refinement changed
+    /// the level or the colour's bytes. `None` for other files.
+    pub fn texture(&self) -> Option<(&Atlas, &Textured)> {
+        self.texture.as_ref().map(|(a, t)| (a, t))
+    }
+
+    /// Changes whenever a refinement makes [`Self::texture`] anew: while it
+    /// stays, so do the atlas and its triangles (a viewer need not upload
+    /// them again).
+    pub fn texture_version(&self) -> u32 {
+        self.texture_version
     }
 
     /// Whether more bytes could still change the mesh: false once the

@@ -586,10 +586,10 @@ impl StreamDecoder {
         let faces = (decoder.decoder().expect("a mesh has its decoder"))
             .layout()
             .face_count();
-        let (texture, face_uvs) = (m.texture())
-            .map(|atlas| {
+        let (texture, face_uvs) = (decoder.texture())
+            .map(|(atlas, _)| {
                 let corners = atlas.corner_texcoords(faces, m.level());
-                texture_arrays(py, &atlas, corners)
+                texture_arrays(py, atlas, corners)
             })
             .unzip();
         Some(Decoded {
@@ -654,6 +654,14 @@ impl StreamDecoder {
     #[getter]
     fn level(&self) -> Option<u32> {
         self.with_mesh(None, |m| Some(m.level()))
+    }
+
+    /// Changes whenever a refinement makes the texture anew (a file whose
+    /// colour is finer than its geometry); while it stays, so do the
+    /// texture and its coordinates.
+    #[getter]
+    fn texture_version(&self) -> u32 {
+        self.lock().texture_version()
     }
 }
 

@@ -238,6 +238,21 @@ def test_a_texture_finer_than_the_mesh_comes_with_its_coordinates(cube_qm):
     assert np.array_equal(cut.face_uvs, shown.face_uvs)
     assert cut.texture.shape == d.texture.shape
     assert not np.array_equal(cut.texture, d.texture)
+    # Fed in pieces, the texture's version changes whenever the texture or
+    # its coordinates do.
+    pieces = qm_mesh.StreamDecoder()
+    last = None
+    versions = set()
+    for i in range(0, len(data), 499):
+        if not pieces.feed(data[i : i + 499]) or pieces.mesh().texture is None:
+            continue
+        m = pieces.mesh()
+        now = (pieces.texture_version, m.texture.tobytes(), m.face_uvs.tobytes())
+        if last is not None and now[0] == last[0]:
+            assert now[1:] == last[1:], f"at {m.bytes_used} bytes"
+        versions.add(now[0])
+        last = now
+    assert len(versions) > 3
     # A file without finer colours has none.
     assert qm_mesh.decode(cube_qm).texture is None and qm_mesh.decode(cube_qm).face_uvs is None
 

@@ -24,15 +24,6 @@ pub struct Buffers {
     decoder: StreamDecoder,
     positions: Vec<f32>,
     normals: Vec<f32>,
-    /// For a file with colour finer than its geometry: the last
-    /// refinement's texture and its triangles over split vertices.
-    texture: Option<(Atlas, Textured)>,
-    /// The level and colour stream bytes the texture was made for: a
-    /// refinement that advanced the geometry alone keeps it.
-    texture_key: Option<(u32, usize)>,
-    /// How many times the texture was made: the same number, the same
-    /// texture and textured triangles.
-    texture_version: u32,
 }
 
 impl Default for Buffers {
@@ -59,9 +50,6 @@ impl Buffers {
             decoder: StreamDecoder::new(options),
             positions: Vec::new(),
             normals: Vec::new(),
-            texture: None,
-            texture_key: None,
-            texture_version: 0,
         }
     }
 
@@ -83,35 +71,20 @@ impl Buffers {
         let mesh = self.decoder.mesh().expect("just refined");
         mesh.positions_f32(&mut self.positions);
         vertex_normals(&self.positions, mesh.triangles(), &mut self.normals);
-        let decoder = self.decoder.decoder().expect("a mesh has its decoder");
-        let key = decoder.colour_bytes_used().map(|used| (mesh.level(), used));
-        if key.is_none() || key != self.texture_key {
-            let had = self.texture.is_some();
-            self.texture = mesh.texture().map(|atlas| {
-                let textured = mesh.textured(&atlas);
-                (atlas, textured)
-            });
-            self.texture_key = key;
-            if had || self.texture.is_some() {
-                self.texture_version = self.texture_version.wrapping_add(1);
-            }
-        }
         Ok(true)
     }
 
-    /// Changes whenever a refinement makes the texture anew: while it
-    /// stays, so do [`Buffers::texture`]'s atlas and triangles (a viewer
-    /// need not upload them again).
+    /// [`StreamDecoder::texture_version`]: changes whenever a refinement
+    /// makes the texture anew.
     pub fn texture_version(&self) -> u32 {
-        self.texture_version
+        self.decoder.texture_version()
     }
 
-    /// For a file whose colour is finer than its geometry: the last
-    /// refinement's colours as a texture atlas, and its triangles over
-    /// vertices that each have one texture coordinate
-    /// ([`qm_codec::LevelMesh::textured`]).
+    /// [`StreamDecoder::texture`]: for a file whose colour is finer than
+    /// its geometry, the last refinement's colours as a texture atlas, and
+    /// its triangles over vertices that each have one texture coordinate.
     pub fn texture(&self) -> Option<(&Atlas, &Textured)> {
-        self.texture.as_ref().map(|(a, t)| (a, t))
+        self.decoder.texture()
     }
 
     /// Vertex positions of the last refinement, `x, y, z` per vertex.
@@ -735,8 +708,6 @@ mod tests {
         let bytes = coloured_file(&mesh, &rgb);
         let mut inc = Buffers::new(DecodeOptions::default());
         let mut textured = 0;
-        // The last texture and its version.
-        let mut last = (inc.texture_version(), None);
         for chunk in bytes.chunks(61) {
             if !inc.decoder_mut().push(chunk).unwrap() || !inc.refine().unwrap() {
                 continue;
@@ -749,11 +720,6 @@ mod tests {
                 native.texture.as_ref(),
                 "at {n} bytes"
             );
-            // An unchanged version promises the texture a viewer has.
-            if inc.texture_version() == last.0 {
-                assert_eq!(native.texture, last.1, "at {n} bytes");
-            }
-            last = (inc.texture_version(), native.texture);
             if let Some((atlas, t)) = inc.texture() {
                 let m = inc.decoder().mesh().unwrap();
                 assert_eq!(t, &m.textured(atlas), "at {n} bytes");

@@ -318,6 +318,7 @@ fn a_stream_decoders_mesh_is_textured_over_split_vertices() {
         let atlas = m.texture().expect("colour finer than the mesh");
         assert_eq!(atlas.level, 4);
         let t = m.textured(&atlas);
+        assert_eq!(decoder.texture(), Some((&atlas, &t)), "the kept texture");
         let own: Vec<u32> = t
             .triangles
             .iter()
@@ -334,4 +335,38 @@ fn a_stream_decoders_mesh_is_textured_over_split_vertices() {
         }
         assert_eq!(t.vertices.len(), pairs.len(), "level {level}");
     }
+}
+
+/// A stream decoder keeps its texture while refinements advance the
+/// geometry alone: an unchanged version is the texture of the last
+/// refinement, and every refinement's texture is what decompressing its
+/// bytes gives.
+#[test]
+fn a_stream_decoders_texture_keeps_its_version_while_it_stays() {
+    let mesh = sphere(2);
+    let fine = sphere(4);
+    let rgb: Vec<[u8; 3]> = (fine.positions().iter())
+        .map(|p| [p.x, p.y, p.z].map(|x| (128.0 + 120.0 * (5.0 * x).sin()) as u8))
+        .collect();
+    let c = compress_coloured(&mesh, Colours::new(&rgb), &EncodeOptions::DEFAULT, None).unwrap();
+    let mut decoder = crate::StreamDecoder::new(DecodeOptions::DEFAULT);
+    let mut last = (decoder.texture_version(), None);
+    let mut versions = std::collections::HashSet::new();
+    for chunk in c.bytes.chunks(61) {
+        decoder.push(chunk).unwrap();
+        if decoder.decoder().is_none() || !decoder.refine().unwrap() {
+            continue;
+        }
+        let n = decoder.bytes_received();
+        let options = DecodeOptions::DEFAULT.with_max_bytes(Some(n));
+        let native = decompress(&c.bytes, &options).unwrap().texture;
+        let kept = decoder.texture().map(|(atlas, _)| atlas.clone());
+        assert_eq!(kept, native, "at {n} bytes");
+        if decoder.texture_version() == last.0 {
+            assert_eq!(kept, last.1, "kept at {n} bytes");
+        }
+        last = (decoder.texture_version(), kept);
+        versions.insert(last.0);
+    }
+    assert!(versions.len() > 3, "{versions:?}");
 }

@@ -411,6 +411,14 @@ class StreamDecoder:
         """Level of the current mesh (None before the first mesh)."""
         return self._inner.level
 
+    @property
+    def texture_version(self) -> int:
+        """Changes whenever a refinement makes the texture anew (a file
+        whose colour is finer than its geometry): while it stays, so do the
+        meshes' ``texture`` and ``face_uvs``, and a viewer need not upload
+        them again."""
+        return self._inner.texture_version
+
 
 from ._trimesh import register as register_trimesh  # noqa: E402
 
