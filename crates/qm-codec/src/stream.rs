@@ -12,6 +12,7 @@
 //! (again when the layout grows). Every binding (the WebAssembly decoder,
 //! the command line, Python) wraps this one type.
 
+use std::cell::OnceCell;
 use std::collections::HashMap;
 
 use qm_lift::Coord;
@@ -90,11 +91,12 @@ pub struct StreamDecoder {
     refinements: u32,
     /// For a file whose colour is finer than its geometry: the last
     /// refinement's texture and its triangles over split vertices, made
-    /// anew only when the level or the colour bytes used changed.
-    texture: Option<(Atlas, Textured)>,
-    /// The level and colour bytes the texture was made for.
+    /// when first asked for after the level or the colour bytes used
+    /// changed.
+    texture: OnceCell<Option<(Atlas, Textured)>>,
+    /// The level and colour bytes the texture is for.
     texture_key: Option<(u32, usize)>,
-    /// How many times a texture was made (or dropped).
+    /// How many times the texture changed.
     texture_version: u32,
 }
 
@@ -118,7 +120,7 @@ impl StreamDecoder {
             values: Vec::new(),
             last: None,
             refinements: 0,
-            texture: None,
+            texture: OnceCell::new(),
             texture_key: None,
             texture_version: 0,
         }
@@ -261,40 +263,44 @@ impl StreamDecoder {
         Ok(true)
     }
 
-    /// Makes the texture of the refinement just made, unless its level and
-    /// the colour bytes it used are those the last one was made for (a
-    /// refinement that advanced the geometry alone keeps it).
+    /// Drops the texture of the last refinement unless the one just made
+    /// has its level and used the same colour bytes (a refinement that
+    /// advanced the geometry alone keeps it).
     fn update_texture(&mut self) {
         let (Some(decoder), Some(last)) = (&self.decoder, &self.last) else {
             return;
         };
         let key = (decoder.colour_bytes_used()).map(|used| (last.status.level, used));
-        if key.is_some() && key == self.texture_key {
+        if key == self.texture_key {
             return;
         }
-        let texture = self.mesh().and_then(|mesh| {
-            let atlas = mesh.texture()?;
-            let textured = mesh.textured(&atlas);
-            Some((atlas, textured))
-        });
-        if self.texture.is_some() || texture.is_some() {
+        let finer = (decoder.header().colour.as_ref()).is_some_and(|c| c.finer > 0);
+        if finer {
             self.texture_version = self.texture_version.wrapping_add(1);
         }
-        (self.texture, self.texture_key) = (texture, key);
+        (self.texture, self.texture_key) = (OnceCell::new(), key);
     }
 
     /// For a file whose colour is finer than its geometry: the last
     /// refinement's texture atlas ([`LevelMesh::texture`]) and the mesh's
     /// triangles over vertices with one texture coordinate each
-    /// ([`LevelMesh::textured`]), made anew only when a refinement changed
-    /// the level or the colour's bytes. `None` for other files.
+    /// ([`LevelMesh::textured`]), made on the first call after a
+    /// refinement changed the level or the colour's bytes, and kept until
+    /// another does. `None` for other files.
     pub fn texture(&self) -> Option<(&Atlas, &Textured)> {
-        self.texture.as_ref().map(|(a, t)| (a, t))
+        let made = self.texture.get_or_init(|| {
+            let mesh = self.mesh()?;
+            let atlas = mesh.texture()?;
+            let textured = mesh.textured(&atlas);
+            Some((atlas, textured))
+        });
+        made.as_ref().map(|(a, t)| (a, t))
     }
 
-    /// Changes whenever a refinement makes [`Self::texture`] anew: while it
-    /// stays, so do the atlas and its triangles (a viewer need not upload
-    /// them again).
+    /// For a file whose colour is finer than its geometry, changes whenever
+    /// a refinement changes the level or the colour's bytes, and so
+    /// [`Self::texture`]: while it stays, so do the atlas and its triangles
+    /// (a viewer need not upload them again).
     pub fn texture_version(&self) -> u32 {
         self.texture_version
     }
