@@ -12,8 +12,8 @@
 //! (again when the layout grows). Every binding (the WebAssembly decoder,
 //! the command line, Python) wraps this one type.
 
-use std::cell::OnceCell;
 use std::collections::HashMap;
+use std::sync::OnceLock;
 
 use qm_lift::Coord;
 use qm_lift::glam::DVec3;
@@ -92,8 +92,8 @@ pub struct StreamDecoder {
     /// For a file whose colour is finer than its geometry: the last
     /// refinement's texture and its triangles over split vertices, made
     /// when first asked for after the level or the colour bytes used
-    /// changed.
-    texture: OnceCell<Option<(Atlas, Textured)>>,
+    /// changed (a lock, not a cell: the decoder stays `Sync`).
+    texture: OnceLock<Option<(Atlas, Textured)>>,
     /// The level and colour bytes the texture is for.
     texture_key: Option<(u32, usize)>,
     /// How many times the texture changed.
@@ -120,7 +120,7 @@ impl StreamDecoder {
             values: Vec::new(),
             last: None,
             refinements: 0,
-            texture: OnceCell::new(),
+            texture: OnceLock::new(),
             texture_key: None,
             texture_version: 0,
         }
@@ -278,7 +278,7 @@ impl StreamDecoder {
         if finer {
             self.texture_version = self.texture_version.wrapping_add(1);
         }
-        (self.texture, self.texture_key) = (OnceCell::new(), key);
+        (self.texture, self.texture_key) = (OnceLock::new(), key);
     }
 
     /// For a file whose colour is finer than its geometry: the last

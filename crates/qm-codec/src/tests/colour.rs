@@ -370,3 +370,12 @@ fn a_stream_decoders_texture_keeps_its_version_while_it_stays() {
     }
     assert!(versions.len() > 3, "{versions:?}");
 }
+
+/// The stream decoder's kept texture leaves it `Send` and `Sync`, as the
+/// bindings that share it across threads need (this fails to compile
+/// otherwise).
+#[test]
+fn a_stream_decoder_is_send_and_sync() {
+    fn shared<T: Send + Sync>() {}
+    shared::<crate::StreamDecoder>();
+}
