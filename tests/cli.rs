@@ -842,10 +842,12 @@ fn colours_come_back_at_their_vertices() {
     let d = dir.path();
     std::fs::copy(asset("appearance/greg-turk-cube.ply"), d.join("cube.ply")).unwrap();
     let out = qm(
-        &["compress", "cube.ply", "--base-domain", "input", "--quiet"],
+        &["compress", "cube.ply", "--base-domain", "input", "--json"],
         d,
     );
     assert!(out.status.success(), "{}", stderr(&out));
+    let summary: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let floor = summary["colour_floor_db"].as_f64().expect("measured");
     let input = qm::read_asset(d.join("cube.ply"), &qm::AssetOptions::DEFAULT).unwrap();
     let colours = input.colors.as_ref().unwrap();
     for output in ["out.ply", "out.obj"] {
@@ -863,6 +865,17 @@ fn colours_come_back_at_their_vertices() {
         );
         assert!(out.status.success(), "{}", stderr(&out));
         let decoded = qm::read_asset(d.join(output), &qm::AssetOptions::DEFAULT).unwrap();
+        // What the summary said the samples can show is about what the
+        // whole file shows, measured as qm distance does.
+        let options = qm::param::DistanceOptions::default().with_samples(20_000);
+        let colour = qm::param::colour_distance(&input, &decoded, &options)
+            .unwrap()
+            .expect("both coloured");
+        assert!(
+            (colour.psnr_db - floor).abs() < 1.5,
+            "{output}: {} dB against a floor of {floor} dB",
+            colour.psnr_db
+        );
         let decoded_colours = decoded.colors.as_ref().expect("colours written");
         assert_eq!(decoded_colours.len(), decoded.mesh.positions.len());
         for (p, c) in input.mesh.positions.iter().zip(colours) {

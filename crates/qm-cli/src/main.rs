@@ -477,6 +477,10 @@ struct CompressSummary {
     remesh_psnr: Option<f64>,
     /// Whether the stream carries a colour per sample.
     colour: bool,
+    /// For colour at a remesh's samples: how well they can show the
+    /// input's colour, as PSNR (the colour stream ends within about 1 dB of
+    /// it).
+    colour_floor_db: Option<f64>,
     /// What the stream does not carry, one entry a kind.
     dropped: Vec<DroppedEntry>,
     /// Wall time of each step, in seconds.
@@ -632,6 +636,7 @@ fn compress(
                 .and_then(|r| r.fallback.clone()),
             remesh_psnr: compressed.remeshed.as_ref().and_then(|r| r.psnr),
             colour: coloured,
+            colour_floor_db: compressed.colour_floor_db,
             dropped: dropped
                 .into_iter()
                 .map(|d| DroppedEntry {

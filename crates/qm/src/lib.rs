@@ -171,6 +171,11 @@ pub struct Encoded {
     pub level: u32,
     /// For a remeshed input: what the remesher did.
     pub remeshed: Option<RemeshReport>,
+    /// Where the colour sits at the remesh's samples: how well the samples
+    /// can show the input's colour, as PSNR over 8-bit RGB (what they miss
+    /// of it drawn over the mesh, measured on its surface); the colour
+    /// stream ends within about 1 dB of it.
+    pub colour_floor_db: Option<f64>,
 }
 
 /// Compresses any mesh: a quad mesh with subdivision connectivity is coded
@@ -217,10 +222,14 @@ pub fn encode_prepared_asset(
         // vertices of an input coded as it is are its own: exactly.
         let colours = surface.colours_at(prepared.mesh.positions());
         let mut given = codec::Colours::new(&colours);
-        if prepared.remeshed.is_some() {
-            given = given.with_missed(colour_missed(&prepared.mesh, &colours, &surface));
+        let missed = (prepared.remeshed.is_some())
+            .then(|| colour_missed(&prepared.mesh, &colours, &surface));
+        if let Some(missed) = missed {
+            given = given.with_missed(missed);
         }
-        return encode_with(prepared, &asset.mesh, Some(given), options);
+        let mut encoded = encode_with(prepared, &asset.mesh, Some(given), options)?;
+        encoded.colour_floor_db = missed.map(|m| 10.0 * (255.0 * 255.0 / m).log10());
+        return Ok(encoded);
     }
     let (mut colours, mut fine) = sample(finer)?;
     // A sharp texture: finer while what the samples miss of it stays
@@ -650,6 +659,7 @@ fn encode_with(
         base_quads: layout.face_count(),
         level: layout.level(),
         remeshed: prepared.remeshed.clone(),
+        colour_floor_db: None,
     })
 }
 
