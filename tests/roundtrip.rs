@@ -263,8 +263,9 @@ fn golden_input(name: &str) -> qm::lift::SemiRegularMesh {
 /// files of the same meshes. Versions 1 to 4, and 5 to 6, differ only in
 /// the base section (version 6: a split base's triangles), so a file
 /// without base bits in the stream (holed_grid) has the same stream in
-/// every version, and its cuts past the base section decode alike. Version 5 rounds the base values whose low bits are in the
-/// stream, so those bits differ from version 4's there; the split base's
+/// every version, and its cuts past the base section decode alike.
+/// Version 5 rounds the base values whose low bits are in the stream, so
+/// those bits differ from version 4's there; the split base's
 /// low bits are also one more than its version 3 file's (the encoder's
 /// choice, `basecode::noise_bits`).
 #[test]

@@ -203,11 +203,10 @@ pub(crate) fn encode(layout: &Layout, update: UpdateRule, given: Colours) -> Res
         rounded: false,
     };
     // The floor: what the samples miss of the surface's colour, measured
-    // by the caller, or else what the lossless stream keeps (rounding) and
-    // what the samples miss between them, taken as what dropping the
-    // finest level of details would cost.
-    // A measure no higher than rounding says the samples hold the colour
-    // as well as 8 bits can: they are coded exactly.
+    // by the caller (a measure no higher than rounding says they hold it as
+    // well as 8 bits can: they are coded exactly), or else what the lossless
+    // stream keeps (rounding) and what the samples miss between them, taken
+    // as what dropping the finest level of details would cost.
     let missed = given.missed.filter(|&m| m > ROUNDING_ERROR);
     let floor = match missed {
         Some(missed) => missed,

@@ -405,14 +405,15 @@ pub fn colour_distance(
     let rms = a_to_b.rms.max(b_to_a.rms);
     Ok(Some(ColourReport {
         rms,
-        psnr_db: psnr(rms),
+        psnr_db: colour_psnr(rms),
         a_to_b,
         b_to_a,
     }))
 }
 
-/// `20 log10(255 / rms)`.
-fn psnr(rms: f64) -> f64 {
+/// Colour PSNR over 8-bit RGB of an RMS error in levels, `20 log10(255 /
+/// rms)` (infinite at 0).
+pub fn colour_psnr(rms: f64) -> f64 {
     if rms > 0.0 {
         20.0 * (255.0 / rms).log10()
     } else {
@@ -457,7 +458,7 @@ fn one_sided(
     };
     ColourSide {
         rms,
-        psnr_db: psnr(rms),
+        psnr_db: colour_psnr(rms),
         samples: count as usize,
     }
 }

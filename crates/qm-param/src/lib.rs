@@ -32,7 +32,7 @@ mod subdivision;
 mod trimesh;
 mod union_find;
 
-pub use colour::{ColourReport, ColourSide, ColourSurface, colour_distance};
+pub use colour::{ColourReport, ColourSide, ColourSurface, colour_distance, colour_psnr};
 pub use distance::{DistanceOptions, DistanceReport, OneSided, Side, distance};
 pub use error::{Error, Part, RemeshFailure, Result};
 pub use qm_io::PolyMesh;

@@ -695,40 +695,6 @@ mod tests {
         assert!(!inc.has_colours() && inc.colours().is_none());
     }
 
-    /// A file with colour finer than its geometry: every refinement's
-    /// texture and split triangles are the native decoder's for that
-    /// prefix, whether made anew or kept from the last refinement.
-    #[test]
-    fn textures_follow_every_refinement() {
-        let mesh = bumpy_sphere(2);
-        let fine = bumpy_sphere(4);
-        let rgb: Vec<[u8; 3]> = (fine.positions().iter())
-            .map(|p| [p.x, p.y, p.z].map(|x| (128.0 + 120.0 * (5.0 * x).sin()) as u8))
-            .collect();
-        let bytes = coloured_file(&mesh, &rgb);
-        let mut inc = Buffers::new(DecodeOptions::default());
-        let mut textured = 0;
-        for chunk in bytes.chunks(61) {
-            if !inc.decoder_mut().push(chunk).unwrap() || !inc.refine().unwrap() {
-                continue;
-            }
-            let n = inc.decoder().bytes_received();
-            let native =
-                decompress(&bytes, &DecodeOptions::default().with_max_bytes(Some(n))).unwrap();
-            assert_eq!(
-                inc.texture().map(|(a, _)| a),
-                native.texture.as_ref(),
-                "at {n} bytes"
-            );
-            if let Some((atlas, t)) = inc.texture() {
-                let m = inc.decoder().mesh().unwrap();
-                assert_eq!(t, &m.textured(atlas), "at {n} bytes");
-                textured += 1;
-            }
-        }
-        assert!(textured > 3, "{textured} textured refinements");
-    }
-
     #[test]
     fn normals_are_unit_and_point_outwards_on_a_sphere() {
         let bytes = sphere_file();

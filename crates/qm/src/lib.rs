@@ -228,7 +228,7 @@ pub fn encode_prepared_asset(
             given = given.with_missed(missed);
         }
         let mut encoded = encode_with(prepared, &asset.mesh, Some(given), options)?;
-        encoded.colour_floor_db = missed.map(|m| 10.0 * (255.0 * 255.0 / m).log10());
+        encoded.colour_floor_db = missed.map(|m| param::colour_psnr(m.sqrt()));
         return Ok(encoded);
     }
     let (mut colours, mut fine) = sample(finer)?;
@@ -316,10 +316,10 @@ fn detail_psnr(layout: &codec::qm_lift::Layout, colours: &[[u8; 3]]) -> f64 {
             }
         }
     }
-    if count == 0 || sum == 0.0 {
+    if count == 0 {
         return f64::INFINITY;
     }
-    20.0 * (255.0 / (sum / count as f64).sqrt()).log10()
+    param::colour_psnr((sum / count as f64).sqrt())
 }
 
 /// Most colour samples, in all, that a texture's detail earns at levels

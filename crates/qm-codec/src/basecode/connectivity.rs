@@ -242,9 +242,9 @@ pub(super) struct TriangleModel {
 /// What a triangle did, the context of the next one's flags, alone or
 /// with the outcome before it (format version 6): its vertex was the one
 /// [`TriangleModel`] tried first beside its edge, the second, a new one, or
-/// anything else (a used vertex named, or three vertices). On a regular or a revolved mesh the traversal
-/// repeats short patterns of these (Edgebreaker's C and R), which the
-/// contexts learn.
+/// anything else (a used vertex named, or three vertices). On a regular or
+/// a revolved mesh the traversal repeats short patterns of these
+/// (Edgebreaker's C and R), which the contexts learn.
 const OUTCOMES: usize = 4;
 /// Contexts of the outcomes of the two triangles before.
 const CONTEXTS: usize = OUTCOMES * OUTCOMES;
